@@ -1,0 +1,20 @@
+//! # mbdc-runtime: the numerics
+//!
+//! **What it is.** Everything a simulation needs once a scene is known: the [`scene::Scene`]
+//! data model (plain serde data, SI units), the [`system::System`] trait that interpreted
+//! and generated scenes implement, rotation math, joint and force kernels, topology analysis,
+//! the integrators (staggered explicit–implicit and the comparison methods), linear solvers,
+//! output writers and the run driver.
+//!
+//! **What it must never know.** Text. No `.mbd` syntax, no spans beyond the opaque
+//! [`scene::Origin`] tags, no dependency on `mbdc-dsl` or `mbdc-compiler`. Generated code
+//! uses only this crate's public API, so anything it needs is a documented function here.
+//!
+//! **API boundary.** `scene` (data in), `system` (the contract), `interp::Interp` (a
+//! `System` from a `Scene`), the integrators and `run` (advance a `System` and stream
+//! frames to writers), `output` (CSV and `summary.json`).
+
+pub mod scene;
+pub mod system;
+pub mod math;
+pub mod topology;
