@@ -18,3 +18,4 @@ pub mod scene;
 pub mod system;
 pub mod math;
 pub mod topology;
+pub mod fn1;
