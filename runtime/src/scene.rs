@@ -672,11 +672,24 @@ pub struct StaggeredOptions {
     /// Reproduce the printed formulas (Δ = 1 + h²|ω|²/4, λ right-hand side h/4) instead of
     /// the corrected ones. For reproducing the papers' figures only.
     pub paper_literal: bool,
+    /// How the regularized λ equation `ε λ̇ = Φ̇` is discretized.
+    pub lint: LintForm,
+}
+
+/// Discretization of the staggered method's λ equation (see docs/methods.md).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub enum LintForm {
+    /// Its exact integral `ε(λ − λ⁰) = Φ`, imposed implicitly at the positions the next
+    /// coordinate update produces (iteration matrix `εI + h²BM⁻¹Bᵀ`). No drift.
+    #[default]
+    Exact,
+    /// The paper's half-step midpoint rule (C3 eq. 34, with the corrected h/8).
+    Midpoint,
 }
 
 impl Default for StaggeredOptions {
     fn default() -> Self {
-        StaggeredOptions { epsilon: None, single_stage: false, paper_literal: false }
+        StaggeredOptions { epsilon: None, single_stage: false, paper_literal: false, lint: LintForm::Exact }
     }
 }
 
