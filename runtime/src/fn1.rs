@@ -44,13 +44,21 @@ impl Jet2 {
     /// A constant (zero derivatives).
     #[inline]
     pub const fn constant(v: f64) -> Jet2 {
-        Jet2 { v, d1: 0.0, d2: 0.0 }
+        Jet2 {
+            v,
+            d1: 0.0,
+            d2: 0.0,
+        }
     }
 
     /// The independent variable at `x` (`d1 = 1`, `d2 = 0`).
     #[inline]
     pub const fn var(x: f64) -> Jet2 {
-        Jet2 { v: x, d1: 1.0, d2: 0.0 }
+        Jet2 {
+            v: x,
+            d1: 1.0,
+            d2: 0.0,
+        }
     }
 
     /// Apply a scalar function given its value `f`, first derivative `f1` and second
@@ -172,7 +180,11 @@ impl Jet2 {
             return self * self;
         }
         let x = self.v;
-        self.chain(x.powf(n), n * x.powf(n - 1.0), n * (n - 1.0) * x.powf(n - 2.0))
+        self.chain(
+            x.powf(n),
+            n * x.powf(n - 1.0),
+            n * (n - 1.0) * x.powf(n - 2.0),
+        )
     }
     /// `min(self, b)` (ties pick `self`).
     #[inline]
@@ -245,14 +257,22 @@ impl Add for Jet2 {
     type Output = Jet2;
     #[inline]
     fn add(self, b: Jet2) -> Jet2 {
-        Jet2 { v: self.v + b.v, d1: self.d1 + b.d1, d2: self.d2 + b.d2 }
+        Jet2 {
+            v: self.v + b.v,
+            d1: self.d1 + b.d1,
+            d2: self.d2 + b.d2,
+        }
     }
 }
 impl Sub for Jet2 {
     type Output = Jet2;
     #[inline]
     fn sub(self, b: Jet2) -> Jet2 {
-        Jet2 { v: self.v - b.v, d1: self.d1 - b.d1, d2: self.d2 - b.d2 }
+        Jet2 {
+            v: self.v - b.v,
+            d1: self.d1 - b.d1,
+            d2: self.d2 - b.d2,
+        }
     }
 }
 impl Mul for Jet2 {
@@ -280,35 +300,53 @@ impl Neg for Jet2 {
     type Output = Jet2;
     #[inline]
     fn neg(self) -> Jet2 {
-        Jet2 { v: -self.v, d1: -self.d1, d2: -self.d2 }
+        Jet2 {
+            v: -self.v,
+            d1: -self.d1,
+            d2: -self.d2,
+        }
     }
 }
 impl Add<f64> for Jet2 {
     type Output = Jet2;
     #[inline]
     fn add(self, b: f64) -> Jet2 {
-        Jet2 { v: self.v + b, ..self }
+        Jet2 {
+            v: self.v + b,
+            ..self
+        }
     }
 }
 impl Sub<f64> for Jet2 {
     type Output = Jet2;
     #[inline]
     fn sub(self, b: f64) -> Jet2 {
-        Jet2 { v: self.v - b, ..self }
+        Jet2 {
+            v: self.v - b,
+            ..self
+        }
     }
 }
 impl Mul<f64> for Jet2 {
     type Output = Jet2;
     #[inline]
     fn mul(self, b: f64) -> Jet2 {
-        Jet2 { v: self.v * b, d1: self.d1 * b, d2: self.d2 * b }
+        Jet2 {
+            v: self.v * b,
+            d1: self.d1 * b,
+            d2: self.d2 * b,
+        }
     }
 }
 impl Div<f64> for Jet2 {
     type Output = Jet2;
     #[inline]
     fn div(self, b: f64) -> Jet2 {
-        Jet2 { v: self.v / b, d1: self.d1 / b, d2: self.d2 / b }
+        Jet2 {
+            v: self.v / b,
+            d1: self.d1 / b,
+            d2: self.d2 / b,
+        }
     }
 }
 impl Add<Jet2> for f64 {
@@ -584,11 +622,22 @@ mod tests {
         let v = |x: f64| value(f, x);
         let j = eval(f, x);
         let d1 = (v(x - 2.0 * h) - 8.0 * v(x - h) + 8.0 * v(x + h) - v(x + 2.0 * h)) / (12.0 * h);
-        let d2 = (-v(x - 2.0 * h) + 16.0 * v(x - h) - 30.0 * v(x) + 16.0 * v(x + h) - v(x + 2.0 * h))
+        let d2 = (-v(x - 2.0 * h) + 16.0 * v(x - h) - 30.0 * v(x) + 16.0 * v(x + h)
+            - v(x + 2.0 * h))
             / (12.0 * h * h);
         let s = 1.0 + j.d1.abs() + j.d2.abs();
-        assert!((j.d1 - d1).abs() < tol * s, "{f:?} at {x}: d1 {} vs fd {}", j.d1, d1);
-        assert!((j.d2 - d2).abs() < tol * s, "{f:?} at {x}: d2 {} vs fd {}", j.d2, d2);
+        assert!(
+            (j.d1 - d1).abs() < tol * s,
+            "{f:?} at {x}: d1 {} vs fd {}",
+            j.d1,
+            d1
+        );
+        assert!(
+            (j.d2 - d2).abs() < tol * s,
+            "{f:?} at {x}: d2 {} vs fd {}",
+            j.d2,
+            d2
+        );
     }
 
     #[test]
@@ -597,11 +646,19 @@ mod tests {
         // inner argument 0.3 x² + 0.2 x + 0.1 exercises the chain rule
         let inner = || {
             Fn1::Add(
-                bx(Fn1::Mul(bx(Fn1::Const(0.3)), bx(Fn1::Powf(bx(Fn1::Var), 2.0)))),
-                bx(Fn1::Add(bx(Fn1::Mul(bx(Fn1::Const(0.2)), bx(Fn1::Var))), bx(Fn1::Const(0.1)))),
+                bx(Fn1::Mul(
+                    bx(Fn1::Const(0.3)),
+                    bx(Fn1::Powf(bx(Fn1::Var), 2.0)),
+                )),
+                bx(Fn1::Add(
+                    bx(Fn1::Mul(bx(Fn1::Const(0.2)), bx(Fn1::Var))),
+                    bx(Fn1::Const(0.1)),
+                )),
             )
         };
-        for u in [Sin, Cos, Tan, Asin, Acos, Atan, Sqrt, Exp, Ln, Tanh, Abs, Ramp] {
+        for u in [
+            Sin, Cos, Tan, Asin, Acos, Atan, Sqrt, Exp, Ln, Tanh, Abs, Ramp,
+        ] {
             let f = Fn1::Unary(u, bx(inner()));
             for x in [0.1, 0.5, 0.9] {
                 check_fd(&f, x, 1e-7);
@@ -703,11 +760,41 @@ mod tests {
     fn jacobi_known_values_and_identities() {
         // Reference values from mpmath (ellipfun), 20 digits.
         let cases = [
-            (0.5, 0.3, 0.474_215_622_711_820_63, 0.880_408_736_426_462_43, 0.965_678_964_745_951_2),
-            (1.7, 0.9, 0.952_230_542_108_018_65, 0.305_380_082_318_197_24, 0.428_872_119_878_410_85),
-            (-2.3, 0.5, -0.949_089_886_417_601_04, -0.315_005_376_937_958_23, 0.741_359_692_558_148_57),
-            (10.0, 0.7, 0.978_073_280_357_512_39, 0.208_261_033_923_043_24, 0.574_770_267_824_881_94),
-            (3.0, 0.999, 0.995_293_128_337_884_36, 0.096_910_209_386_770_212, 0.101_893_066_960_928_5),
+            (
+                0.5,
+                0.3,
+                0.474_215_622_711_820_63,
+                0.880_408_736_426_462_43,
+                0.965_678_964_745_951_2,
+            ),
+            (
+                1.7,
+                0.9,
+                0.952_230_542_108_018_65,
+                0.305_380_082_318_197_24,
+                0.428_872_119_878_410_85,
+            ),
+            (
+                -2.3,
+                0.5,
+                -0.949_089_886_417_601_04,
+                -0.315_005_376_937_958_23,
+                0.741_359_692_558_148_57,
+            ),
+            (
+                10.0,
+                0.7,
+                0.978_073_280_357_512_39,
+                0.208_261_033_923_043_24,
+                0.574_770_267_824_881_94,
+            ),
+            (
+                3.0,
+                0.999,
+                0.995_293_128_337_884_36,
+                0.096_910_209_386_770_212,
+                0.101_893_066_960_928_5,
+            ),
         ];
         for (u, m, s, c, d) in cases {
             let (s2, c2, d2) = sncndn(u, m);
@@ -737,7 +824,10 @@ mod tests {
         }
         // limits
         let (s, c, d) = sncndn(0.8, 1.0);
-        assert_eq!((s, c, d), (0.8f64.tanh(), 1.0 / 0.8f64.cosh(), 1.0 / 0.8f64.cosh()));
+        assert_eq!(
+            (s, c, d),
+            (0.8f64.tanh(), 1.0 / 0.8f64.cosh(), 1.0 / 0.8f64.cosh())
+        );
         let (s, c, d) = sncndn(0.8, 0.0);
         assert_eq!((s, c, d), (0.8f64.sin(), 0.8f64.cos(), 1.0));
         let (s, _, _) = sncndn(0.8, 1.0 - 1e-14);

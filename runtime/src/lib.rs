@@ -19,3 +19,4 @@ pub mod system;
 pub mod math;
 pub mod topology;
 pub mod fn1;
+pub mod joints;

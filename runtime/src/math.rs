@@ -219,9 +219,18 @@ pub fn quat_rate(q: &Quaternion<f64>, w: &Vector3<f64>) -> Quaternion<f64> {
 ///
 /// `ω` is the body-frame angular velocity at the midpoint of the step, `h` the step.
 #[inline]
-pub fn cayley_update(q: &Quaternion<f64>, w: &Vector3<f64>, h: f64, paper_literal: bool) -> Quaternion<f64> {
+pub fn cayley_update(
+    q: &Quaternion<f64>,
+    w: &Vector3<f64>,
+    h: f64,
+    paper_literal: bool,
+) -> Quaternion<f64> {
     let w2 = w.norm_squared();
-    let delta = if paper_literal { 1.0 + h * h * w2 / 4.0 } else { 1.0 + h * h * w2 / 16.0 };
+    let delta = if paper_literal {
+        1.0 + h * h * w2 / 4.0
+    } else {
+        1.0 + h * h * w2 / 16.0
+    };
     let a = w * (0.25 * h);
     // q̃ = q ⊗ (1, hω/4) / Δ
     let qt = qmul(q, &Quaternion::new(1.0, a.x, a.y, a.z)) / delta;
@@ -236,9 +245,13 @@ mod tests {
 
     fn rq(s: u64) -> Quaternion<f64> {
         // deterministic pseudo-random unit quaternion
-        let mut x = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        let mut x = s
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
         let mut next = || {
-            x = x.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            x = x
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
             ((x >> 11) as f64) / ((1u64 << 53) as f64) * 2.0 - 1.0
         };
         let q = Quaternion::new(next(), next(), next(), next());
@@ -377,7 +390,10 @@ mod tests {
             let e1 = (cayley_update(&q, &w, 0.02, lit) - exact(0.02)).norm();
             let e2 = (cayley_update(&q, &w, 0.01, lit) - exact(0.01)).norm();
             let order = (e1 / e2).log2();
-            assert!(order > 2.8 && order < 3.2, "local order {order} (literal={lit})");
+            assert!(
+                order > 2.8 && order < 3.2,
+                "local order {order} (literal={lit})"
+            );
         }
     }
 }
