@@ -1,5 +1,5 @@
 //! Joint kernels: constraint values, Jacobian rows, bias and acceleration right-hand
-//! side for every [`JointKind`], built from a handful of tested primitives.
+//! side for every [`JointKind`](crate::scene::JointKind), built from a handful of tested primitives.
 //!
 //! # Conventions
 //!
@@ -799,17 +799,11 @@ mod tests {
             &att(BodyRef::Ground, [0.0; 3], Quaternion::identity()),
             0.5,
         );
-        // 90° about y: joint z → body −x... rotate z by +90° about y gives +x.
-        for (i, want) in [[0.0, 0.0, -1.0], [0.0, 1.0, 0.0], [1.0, 0.0, 0.0]]
-            .iter()
-            .enumerate()
-        {
-            for k in 0..3 {
-                assert!(
-                    (g.fa[i][k] - want[k]).abs() < 1e-15,
-                    "axis {i}: {:?}",
-                    g.fa[i]
-                );
+        // 90° about y maps x → −z, y → y, z → +x (the joint axes in body components).
+        let want = [[0.0, 0.0, -1.0], [0.0, 1.0, 0.0], [1.0, 0.0, 0.0]];
+        for (axis, w) in g.fa.iter().zip(&want) {
+            for (x, y) in axis.iter().zip(w) {
+                assert!((x - y).abs() < 1e-15, "axes {:?}", g.fa);
             }
         }
         assert_eq!(g.fb, [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]);

@@ -20,3 +20,7 @@ pub mod math;
 pub mod topology;
 pub mod fn1;
 pub mod joints;
+pub mod forces;
+pub mod contact;
+pub mod energy;
+pub mod interp;
