@@ -610,3 +610,163 @@ fn interpreter_dispatches_every_kind_to_its_kernel() {
         );
     }
 }
+
+/// A 3-D double pendulum (two rods, two spherical joints, gravity), integrated through
+/// the interpreter with classical RK4 on the index-1 equations. With a correct `gamma`
+/// the constraint drift and the energy error are O(h⁴) per unit time; a wrong velocity
+/// term would make Φ drift like t².
+#[test]
+fn double_pendulum_index1_rk4_conserves_energy_and_constraints() {
+    let l = 1.0;
+    let rod = |name: &str,
+               r: Vector3<f64>,
+               q: nalgebra::Quaternion<f64>,
+               v: Vector3<f64>,
+               w: Vector3<f64>| Body {
+        name: name.into(),
+        mass: 1.0,
+        inertia: [
+            [l * l / 12.0, 0.0, 0.0],
+            [0.0, l * l / 12.0, 0.0],
+            [0.0, 0.0, 1e-3],
+        ],
+        position: r.into(),
+        orientation: quat_array(&q),
+        velocity: v.into(),
+        angular_velocity: (rotation(&q).transpose() * w).into(),
+        origin: Origin::default(),
+    };
+    // rod 1 tilted 60° about y from hanging, rod 2 tilted further about x
+    let q1 = axis_angle(&Vector3::y(), -std::f64::consts::FRAC_PI_3);
+    let q2 = axis_angle(&Vector3::new(1.0, 0.3, 0.0), 0.7);
+    let top = Vector3::new(0.0, 0.0, l / 2.0);
+    let r1 = -(rotation(&q1) * top);
+    let end1 = r1 - rotation(&q1) * top;
+    let r2 = end1 - rotation(&q2) * top;
+    let (w1, w2) = (Vector3::new(0.0, 0.0, 1.0), Vector3::new(0.5, 0.0, 1.0));
+    let v1 = w1.cross(&r1);
+    let v2 = w1.cross(&end1) + w2.cross(&(r2 - end1));
+    let mut s = empty_scene(vec![
+        rod("rod1", r1, q1, v1, w1),
+        rod("rod2", r2, q2, v2, w2),
+    ]);
+    s.gravity = Some([0.0, 0.0, -G]);
+    let at = |body, p: [f64; 3]| Attachment {
+        body,
+        point: p,
+        frame: IDENTITY,
+    };
+    s.joints.push(Joint {
+        name: "shoulder".into(),
+        kind: JointKind::Spherical,
+        a: at(BodyRef::Ground, [0.0; 3]),
+        b: at(BodyRef::Body(0), [0.0, 0.0, l / 2.0]),
+        origin: Origin::default(),
+    });
+    s.joints.push(Joint {
+        name: "elbow".into(),
+        kind: JointKind::Spherical,
+        a: at(BodyRef::Body(0), [0.0, 0.0, -l / 2.0]),
+        b: at(BodyRef::Body(1), [0.0, 0.0, l / 2.0]),
+        origin: Origin::default(),
+    });
+    let sys = Interp::new(&s).unwrap();
+    let energy =
+        |p: &[Pose], t: &[Twist]| kinetic_energy(sys.layout(), t) + sys.potential_energy(0.0, p);
+    let violation = |p: &[Pose], t: &[Twist]| {
+        let mut ev = ConstraintEval::new(6);
+        sys.constraints(0.0, p, t, Need::ALL, &mut ev);
+        let mut worst: f64 = 0.0;
+        for r in 0..6 {
+            let (a, b) = sys.layout().row_bodies(r);
+            let mut rate = ev.bias[r];
+            for (body, blk) in [(a, ev.jac[r].a), (b, ev.jac[r].b)] {
+                if let Some(i) = body {
+                    let u = [t[i].v.x, t[i].v.y, t[i].v.z, t[i].w.x, t[i].w.y, t[i].w.z];
+                    rate += (0..6).map(|k| blk[k] * u[k]).sum::<f64>();
+                }
+            }
+            worst = worst.max(ev.phi[r].abs()).max(rate.abs());
+        }
+        worst
+    };
+    // state derivative: (ṙ, q̇, v̇, ω̇) per body
+    type D = Vec<(
+        Vector3<f64>,
+        nalgebra::Quaternion<f64>,
+        Vector3<f64>,
+        Vector3<f64>,
+    )>;
+    let deriv = |p: &[Pose], t: &[Twist]| -> D {
+        let (acc, _) = index1(&sys, 0.0, p, t);
+        (0..2)
+            .map(|i| {
+                (
+                    t[i].v,
+                    mbdc_runtime::math::quat_rate(&p[i].q, &t[i].w),
+                    Vector3::new(acc[6 * i], acc[6 * i + 1], acc[6 * i + 2]),
+                    Vector3::new(acc[6 * i + 3], acc[6 * i + 4], acc[6 * i + 5]),
+                )
+            })
+            .collect()
+    };
+    let shift = |p: &[Pose], t: &[Twist], d: &D, h: f64| -> (Vec<Pose>, Vec<Twist>) {
+        let ps = (0..2)
+            .map(|i| Pose::new(p[i].r + d[i].0 * h, p[i].q + d[i].1 * h))
+            .collect();
+        let ts = (0..2)
+            .map(|i| Twist {
+                v: t[i].v + d[i].2 * h,
+                w: t[i].w + d[i].3 * h,
+            })
+            .collect();
+        (ps, ts)
+    };
+    let run = |n: usize| -> (f64, f64, Vec<Pose>) {
+        let (mut pose, mut twist) = state(&sys);
+        let e0 = energy(&pose, &twist);
+        assert!(violation(&pose, &twist) < 1e-14);
+        let h = 1.0 / n as f64;
+        let mut worst_e: f64 = 0.0;
+        for _ in 0..n {
+            let k1 = deriv(&pose, &twist);
+            let (p2, t2) = shift(&pose, &twist, &k1, h / 2.0);
+            let k2 = deriv(&p2, &t2);
+            let (p3, t3) = shift(&pose, &twist, &k2, h / 2.0);
+            let k3 = deriv(&p3, &t3);
+            let (p4, t4) = shift(&pose, &twist, &k3, h);
+            let k4 = deriv(&p4, &t4);
+            for i in 0..2 {
+                let c = |f: &dyn Fn(usize) -> f64| f(0) + 2.0 * f(1) + 2.0 * f(2) + f(3);
+                let ks = [&k1[i], &k2[i], &k3[i], &k4[i]];
+                let dr = Vector3::from_fn(|k, _| c(&|j| ks[j].0[k]));
+                let dq = nalgebra::Quaternion::new(
+                    c(&|j| ks[j].1.w),
+                    c(&|j| ks[j].1.i),
+                    c(&|j| ks[j].1.j),
+                    c(&|j| ks[j].1.k),
+                );
+                let dv = Vector3::from_fn(|k, _| c(&|j| ks[j].2[k]));
+                let dw = Vector3::from_fn(|k, _| c(&|j| ks[j].3[k]));
+                pose[i] = Pose::new(pose[i].r + dr * (h / 6.0), pose[i].q + dq * (h / 6.0));
+                twist[i] = Twist {
+                    v: twist[i].v + dv * (h / 6.0),
+                    w: twist[i].w + dw * (h / 6.0),
+                };
+            }
+            worst_e = worst_e.max((energy(&pose, &twist) - e0).abs());
+        }
+        (violation(&pose, &twist), worst_e / e0.abs().max(1.0), pose)
+    };
+    // Over 1 s: errors small and falling like h⁴ (measured: ratio 16.0 per halving).
+    let (v1, e1, _) = run(500);
+    let (v2, e2, pose) = run(1000);
+    assert!(
+        v2 < 1e-8 && e2 < 1e-8,
+        "constraint drift {v2}, relative energy error {e2}"
+    );
+    assert!(v1 / v2 > 12.0, "constraint drift not O(h⁴): {v1} → {v2}");
+    assert!(e1 / e2 > 12.0, "energy error not O(h⁴): {e1} → {e2}");
+    // it actually moved
+    assert!((pose[1].r - r2).norm() > 0.1);
+}
