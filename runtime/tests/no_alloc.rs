@@ -1,0 +1,245 @@
+//! The per-step `System` methods of the interpreter do not allocate: checked with a
+//! counting global allocator (per thread) on a scene that uses every joint kind, every
+//! force element, a lock and every supported contact pair.
+
+use mbdc_runtime::interp::{Interp, IDENTITY};
+use mbdc_runtime::math::{axis_angle, quat_array};
+use mbdc_runtime::scene::*;
+use mbdc_runtime::system::{ConstraintEval, Need, Pose, System, Twist, Wrench};
+use nalgebra::Vector3;
+use std::alloc::{GlobalAlloc, Layout, System as Sys};
+use std::cell::Cell;
+
+struct Counting;
+
+thread_local! {
+    static COUNT: Cell<usize> = const { Cell::new(0) };
+}
+
+fn bump() {
+    let _ = COUNT.try_with(|c| c.set(c.get() + 1));
+}
+
+unsafe impl GlobalAlloc for Counting {
+    unsafe fn alloc(&self, l: Layout) -> *mut u8 {
+        bump();
+        unsafe { Sys.alloc(l) }
+    }
+    unsafe fn alloc_zeroed(&self, l: Layout) -> *mut u8 {
+        bump();
+        unsafe { Sys.alloc_zeroed(l) }
+    }
+    unsafe fn realloc(&self, p: *mut u8, l: Layout, n: usize) -> *mut u8 {
+        bump();
+        unsafe { Sys.realloc(p, l, n) }
+    }
+    unsafe fn dealloc(&self, p: *mut u8, l: Layout) {
+        unsafe { Sys.dealloc(p, l) }
+    }
+}
+
+#[global_allocator]
+static A: Counting = Counting;
+
+fn allocations<R>(f: impl FnOnce() -> R) -> (R, usize) {
+    let before = COUNT.with(|c| c.get());
+    let r = f();
+    (r, COUNT.with(|c| c.get()) - before)
+}
+
+fn scene() -> Scene {
+    let mk = |name: &str, p: [f64; 3], ang: f64| Body {
+        name: name.into(),
+        mass: 1.0,
+        inertia: [[0.1, 0.0, 0.0], [0.0, 0.2, 0.0], [0.0, 0.0, 0.3]],
+        position: p,
+        orientation: quat_array(&axis_angle(&Vector3::new(1.0, 2.0, 3.0), ang)),
+        velocity: [0.1, -0.2, 0.3],
+        angular_velocity: [0.4, 0.5, -0.6],
+        origin: Origin::default(),
+    };
+    let a = Attachment {
+        body: BodyRef::Body(0),
+        point: [0.1, 0.2, 0.3],
+        frame: IDENTITY,
+    };
+    let b = Attachment {
+        body: BodyRef::Body(1),
+        point: [-0.2, 0.1, 0.0],
+        frame: IDENTITY,
+    };
+    let g = Attachment {
+        body: BodyRef::Ground,
+        point: [0.0; 3],
+        frame: IDENTITY,
+    };
+    let t = || Fn1::Unary(UnaryFn::Sin, Box::new(Fn1::Var));
+    let table = Fn1::Table(Box::new(Fn1::Var), vec![[0.0, 0.0], [1.0, 2.0], [2.0, 1.0]]);
+    let kinds = vec![
+        (JointKind::Spherical, b),
+        (JointKind::Revolute, b),
+        (JointKind::Prismatic, b),
+        (JointKind::Cylindrical, b),
+        (JointKind::Universal, b),
+        (JointKind::Fixed, b),
+        (JointKind::Planar, b),
+        (JointKind::Distance { length: 0.7 }, b),
+        (
+            JointKind::DriveAngle {
+                joint: 1,
+                angle: t(),
+            },
+            b,
+        ),
+        (
+            JointKind::DriveDisplacement {
+                joint: 2,
+                displacement: table,
+            },
+            b,
+        ),
+        (JointKind::Rolling { radius: 0.3 }, g),
+        (
+            JointKind::PointVelocity {
+                velocity: [t(), Fn1::Const(1.0), Fn1::Var],
+            },
+            g,
+        ),
+        (
+            JointKind::Curve {
+                curve: Fn1::JacobiSn(Box::new(Fn1::Var), 0.5),
+            },
+            b,
+        ),
+    ];
+    let joints = kinds
+        .into_iter()
+        .enumerate()
+        .map(|(i, (kind, bb))| Joint {
+            name: format!("j{i}"),
+            kind,
+            a,
+            b: bb,
+            origin: Origin::default(),
+        })
+        .collect();
+    let force = |name: &str, kind| Force {
+        name: name.into(),
+        kind,
+        origin: Origin::default(),
+    };
+    let contact = |name: &str, sa, sb, ga: Attachment| Contact {
+        name: name.into(),
+        a: (ga, sa),
+        b: (g, sb),
+        stiffness: 1e4,
+        damping: 5.0,
+        friction: 0.4,
+        origin: Origin::default(),
+    };
+    Scene {
+        name: "all".into(),
+        gravity: Some([0.0, 0.0, -9.81]),
+        bodies: vec![
+            mk("a", [0.1, 0.2, 0.25], 0.5),
+            mk("b", [-0.3, 0.4, 0.2], 1.2),
+            mk("c", [0.0, 0.0, 0.05], 0.1),
+        ],
+        joints,
+        forces: vec![
+            force(
+                "p",
+                ForceKind::Point {
+                    at: a,
+                    value: [t(), Fn1::Const(2.0), Fn1::Var],
+                    frame: ForceFrame::Body,
+                },
+            ),
+            force(
+                "m",
+                ForceKind::Torque {
+                    body: BodyRef::Body(1),
+                    value: [t(), t(), t()],
+                    frame: ForceFrame::World,
+                },
+            ),
+            force(
+                "s",
+                ForceKind::Spring {
+                    a,
+                    b,
+                    stiffness: 10.0,
+                    rest_length: 0.2,
+                    damping: 1.0,
+                },
+            ),
+            force(
+                "r",
+                ForceKind::RotationalSpring {
+                    joint: 1,
+                    stiffness: 3.0,
+                    rest_angle: 0.1,
+                    damping: 0.2,
+                    lock_angle: Some(0.4),
+                },
+            ),
+        ],
+        beams: vec![],
+        meshes: vec![],
+        contacts: vec![
+            contact("sp", Shape::Sphere { radius: 0.3 }, Shape::Plane, a),
+            contact(
+                "bp",
+                Shape::Box {
+                    half_extents: [0.1, 0.2, 0.1],
+                },
+                Shape::Plane,
+                Attachment {
+                    body: BodyRef::Body(2),
+                    ..a
+                },
+            ),
+            Contact {
+                b: (b, Shape::Sphere { radius: 0.4 }),
+                ..contact("ss", Shape::Sphere { radius: 0.4 }, Shape::Plane, a)
+            },
+        ],
+        simulate: Simulate::default(),
+        reference: None,
+        params: vec![],
+    }
+}
+
+#[test]
+fn per_step_methods_do_not_allocate() {
+    let sys = Interp::new(&scene()).unwrap();
+    let lay = sys.layout();
+    let n = lay.bodies();
+    let mut pose = vec![Pose::default(); n];
+    let mut twist = vec![Twist::default(); n];
+    let mut w = vec![Wrench::default(); n];
+    let mut ev = ConstraintEval::new(lay.rows);
+    let mut active = vec![false; lay.rows];
+    let ((), count) = allocations(|| {
+        sys.initial_state(&mut pose, &mut twist);
+        for k in 0..10 {
+            let t = 0.1 * k as f64;
+            sys.applied(t, &pose, &twist, &mut w);
+            sys.constraints(t, &pose, &twist, Need::ALL, &mut ev);
+            sys.constraints(t, &pose, &twist, Need::PHI, &mut ev);
+            let _ = sys.potential_energy(t, &pose);
+            let _ = sys.update_locks(&pose, &twist, &mut active);
+            let _ = sys.has_velocity_forces();
+        }
+    });
+    assert_eq!(count, 0, "allocations in per-step methods");
+    // the scene really exercised contact and all the rows
+    assert!(w.iter().all(|x| x.f.iter().all(|v| v.is_finite())));
+    assert!(ev.phi.iter().all(|v| v.is_finite()) && ev.gamma.iter().all(|v| v.is_finite()));
+    assert_eq!(lay.rows, scene().constraint_rows() + 1);
+    assert!(sys.has_velocity_forces());
+    assert_eq!(sys.force_terms(), 4 + 3);
+    // and the allocator does count
+    let (_, c) = allocations(|| vec![1u8; 16]);
+    assert!(c >= 1);
+}
