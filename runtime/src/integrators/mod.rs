@@ -1,0 +1,87 @@
+//! Time integrators. Each advances a [`System`] by fixed steps and exposes the state
+//! synchronised at the step times (positions, velocities and multipliers at the same t).
+//!
+//! | method | module | paper |
+//! |---|---|---|
+//! | `staggered`, `baumgarte`, `penalty` | [`staggered`] | two-stage CINT with three constraint-force modules, notes A §1.4–1.9, C §3 |
+//!
+//! All integrators are generic over the system, so generated code is monomorphized
+//! into them, and none allocates inside [`Integrator::step`].
+
+pub mod common;
+mod dense;
+pub mod staggered;
+#[cfg(test)]
+pub(crate) mod testsys;
+
+use crate::system::{Pose, System, Twist};
+
+/// The synchronized state at a step time.
+#[derive(Clone, Debug, Default)]
+pub struct State {
+    /// Time.
+    pub t: f64,
+    /// Poses.
+    pub pose: Vec<Pose>,
+    /// Twists.
+    pub twist: Vec<Twist>,
+    /// Multipliers, one per constraint row (0 for inactive rows).
+    pub lambda: Vec<f64>,
+}
+
+impl State {
+    /// Buffers for `bodies` bodies and `rows` rows.
+    pub fn new(bodies: usize, rows: usize) -> State {
+        State { t: 0.0, pose: vec![Pose::default(); bodies], twist: vec![Twist::default(); bodies], lambda: vec![0.0; rows] }
+    }
+}
+
+/// What went wrong in a step.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum StepError {
+    /// A linear system could not be factorized.
+    #[error("the {what} matrix is singular at row {row} (the constraints there are dependent or degenerate)")]
+    Singular {
+        /// Which matrix.
+        what: &'static str,
+        /// Row (constraint row or unknown index) where the factorization failed.
+        row: usize,
+    },
+    /// An iteration did not converge.
+    #[error("{what} did not converge in {iterations} iterations (residual {residual:.3e})")]
+    NoConvergence {
+        /// Which iteration.
+        what: &'static str,
+        /// Iterations made.
+        iterations: u32,
+        /// Final residual.
+        residual: f64,
+    },
+}
+
+/// Per-step statistics.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct StepInfo {
+    /// Iterations of the method's inner solver (Newton, PCG), 0 if it does not iterate.
+    pub iterations: u32,
+}
+
+/// A fixed-step integrator.
+pub trait Integrator<S: System>: Send {
+    /// The method name.
+    fn name(&self) -> &'static str;
+    /// Current (synchronized) time.
+    fn time(&self) -> f64;
+    /// Step size.
+    fn step_size(&self) -> f64;
+    /// Advance one step.
+    fn step(&mut self, sys: &S) -> Result<StepInfo, StepError>;
+    /// The synchronized state at [`Integrator::time`].
+    fn state(&self, sys: &S, out: &mut State);
+    /// Which constraint rows are enforced (locks engage during a run).
+    fn active(&self) -> &[bool];
+    /// Method statistics for the run summary (name, value).
+    fn stats(&self) -> Vec<(&'static str, f64)> {
+        Vec::new()
+    }
+}

@@ -1,0 +1,671 @@
+//! The two-stage explicit coordinate integrator (CINT) of Park, Chiou and Downer with three
+//! interchangeable constraint-force modules (LINT): the staggered stabilization
+//! (`staggered`), Baumgarte's index-1 stabilization (`baumgarte`) and the penalty method
+//! (`penalty`). Sharing the coordinate integrator makes the comparison of the papers a
+//! comparison of the constraint treatment alone.
+//!
+//! ## CINT (notes A §1.8–1.9, C §3.5)
+//! Two leapfrog sequences are kept, offset by h/2. At each half-step time τ, the sequence X
+//! whose positions are at τ (its velocities are at τ − h/2) is advanced by a full step h:
+//!
+//! `u̇ ← u̇ + h M⁻¹(Q̄ − Bᵀλ)`, `r ← r + h v`, `q ← cayley(q, ω, h)`,
+//!
+//! where the Euler parameters use the midpoint-implicit (Cayley) rule with the corrected
+//! `Δ = 1 + h²|ω|²/16` ([`crate::math::cayley_update`]). `Q̄ = F − ω × Jω`: the gyroscopic
+//! term uses the *other* sequence's ω, which is at τ exactly (the reason for two stages: C3
+//! §IV.B, Fig. 7); damping forces use X's own, lagged velocity (the leapfrog is unstable for
+//! damping evaluated with the synchronous velocity of the other sequence, notes A §1.9;
+//! lagged it is stable for c·h < 2). `single_stage` keeps one sequence and uses the lagged
+//! velocity for the gyroscopic term too (C3 eq. 41), for the comparison of C3 Fig. 7.
+//!
+//! ## LINT: the staggered stabilization (default, [`LintForm::Exact`])
+//! The method regularizes the constraints by the penalty law `λ = Φ/ε` and integrates
+//! `ε λ̇ = Φ̇` for λ as a state variable (notes A §1.6, C2 §IV). That equation has the exact
+//! integral `ε(λ − λ⁰) = Φ − Φ⁰`. The default LINT imposes it implicitly at the positions
+//! the CINT step produces, with `Φ⁰ = 0` (an initial violation is removed):
+//!
+//! `ε (λ − λ⁰) = Φ(X_λ(τ + h))`,
+//!
+//! solved by Newton iterations on λ with the matrix `εI + h² B M⁻¹ Bᵀ` (the holonomic
+//! iteration matrix `εI + δ²BM⁻¹Bᵀ` of C2 Remark 5 with δ = h). Nonholonomic rows impose
+//! `ε(λ − λ⁰) = Φ_N` on the new velocity, scaled by h so that the matrix stays symmetric
+//! positive definite when both kinds share bodies. The matrix is nonsingular even where
+//! `B M⁻¹ Bᵀ` is singular (links that line up, redundant joints), which is the robustness
+//! argument of the method; the constraint error is `ε Δλ` and does not drift.
+//!
+//! [`LintForm::Midpoint`] is the paper's discretization (C3 eq. 34, notes A §1.6): the λ
+//! equation with the velocity predictor `u̇ + (h/2)M⁻¹(Q̄ − Bᵀλ)` advanced over each half
+//! step by the midpoint rule, `(εI + (h²/8)K) λ̃ = ελ + (h/8)(r_prev + r)`, `λ ← 2λ̃ − λ`,
+//! with the corrected h/8 (`paper_literal`: the printed h/4). It is kept to reproduce the
+//! paper: its constraint modes are undamped (the midpoint velocity is enforced, so the
+//! constraint velocity changes sign each step instead of decaying), and because the λ history
+//! alternates between the two sequences their multiplier errors feed each other; the
+//! physical pendulum released at 170° diverges after ~5 s at every ε we tried (see
+//! docs/methods.md).
+//!
+//! ## ε
+//! Default rule: `ε = 10⁻⁹ · h² · max diag(B M⁻¹ Bᵀ)` at t = 0. The condition number of
+//! `εI + h²K` is then at most about 10⁹ however ill-conditioned `K` becomes — the paper's rule
+//! `ε ∼ c / cond(BM⁻¹Bᵀ)` with the accuracy c expressed relative to the step — while the
+//! constraint error `ε Δλ` of well-conditioned constraints stays at round-off.
+//!
+//! ## Baumgarte and penalty
+//! `baumgarte`: `B M⁻¹ Bᵀ λ = B M⁻¹ Q̄ − γ + 2α Φ̇ + β² Φ` (`Φ̈ + 2αΦ̇ + β²Φ = 0`; nonholonomic
+//! rows `Φ̇_N + 2αΦ_N = 0`), solved by Cholesky without regularization — where the matrix
+//! becomes singular the step fails and reports it. `penalty`: `λ = Φ/ε` explicitly (eq. 23),
+//! default `ε = h² max diag K` so that the penalty frequency stays below the explicit limit.
+//!
+//! ## Start
+//! λ⁰ is the consistent index-1 multiplier (`K λ = B M⁻¹ Q̄ − γ`). Sequence B starts with
+//! velocities `u̇⁰ − (h/2)u̇'⁰`, sequence A with positions at h/2 from a second-order Taylor step.
+
+use nalgebra::DMatrix;
+
+use super::common::{self, accel, b_minv, b_times, bt_lambda, qbar, Index1};
+use super::dense::{KAssembler, SymSolver};
+use super::{Integrator, State, StepError, StepInfo};
+use crate::math::cayley_update;
+use crate::scene::{LintForm, StaggeredOptions};
+use crate::system::{ConstraintEval, Need, Pose, RowKind, System, Twist, Wrench};
+
+/// One leapfrog sequence.
+#[derive(Clone, Debug)]
+struct Seq {
+    pose: Vec<Pose>,
+    vel: Vec<Twist>,
+}
+
+/// The constraint-force module.
+#[derive(Clone, Debug)]
+enum Law {
+    Staggered { lint: LintForm, paper_literal: bool },
+    Baumgarte { alpha: f64, beta: f64 },
+    Penalty,
+}
+
+/// The two-stage integrator with its constraint-force module.
+pub struct TwoStage {
+    law: Law,
+    name: &'static str,
+    h: f64,
+    single_stage: bool,
+    paper_literal: bool,
+    epsilon: f64,
+    /// Regularization per row (ε holonomic, εh nonholonomic).
+    e: Vec<f64>,
+    tau: f64,
+    half_steps: u64,
+    seq: [Seq; 2],
+    x: usize,
+    lambda: Vec<f64>,
+    /// λ at the previous LINT (for output interpolation) and its time.
+    lambda_prev: Vec<f64>,
+    tau_lambda: f64,
+    lambda0: Vec<f64>,
+    active: Vec<bool>,
+    next_active: Vec<bool>,
+    // midpoint LINT history
+    r_prev: Vec<f64>,
+    fresh: Vec<bool>,
+    // per-half-step buffers
+    qbar: Vec<Wrench>,
+    flam: Vec<Wrench>,
+    applied: Vec<Wrench>,
+    ce: ConstraintEval,
+    ce_trial: ConstraintEval,
+    trial: Seq,
+    tmp: Vec<f64>,
+    res: Vec<f64>,
+    dl: Vec<f64>,
+    k: DMatrix<f64>,
+    asm: KAssembler,
+    solver: SymSolver,
+    /// Tolerance on position residuals (m or rad).
+    tol: f64,
+    // statistics
+    iterations: u64,
+    lints: u64,
+    max_iterations: u32,
+    min_pivot_ratio: f64,
+}
+
+const MAX_NEWTON: u32 = 25;
+
+impl TwoStage {
+    /// The staggered explicit–implicit method.
+    pub fn staggered<S: System>(sys: &S, h: f64, opts: &StaggeredOptions) -> TwoStage {
+        let law = Law::Staggered { lint: opts.lint, paper_literal: opts.paper_literal };
+        TwoStage::new(sys, h, law, "staggered", opts.epsilon, opts.single_stage, opts.paper_literal)
+    }
+
+    /// Baumgarte's stabilization on the same coordinate integrator.
+    pub fn baumgarte<S: System>(sys: &S, h: f64, alpha: f64, beta: f64) -> TwoStage {
+        TwoStage::new(sys, h, Law::Baumgarte { alpha, beta }, "baumgarte", None, false, false)
+    }
+
+    /// The penalty method on the same coordinate integrator.
+    pub fn penalty<S: System>(sys: &S, h: f64, epsilon: Option<f64>) -> TwoStage {
+        TwoStage::new(sys, h, Law::Penalty, "penalty", epsilon, false, false)
+    }
+
+    fn new<S: System>(
+        sys: &S,
+        h: f64,
+        law: Law,
+        name: &'static str,
+        epsilon: Option<f64>,
+        single_stage: bool,
+        paper_literal: bool,
+    ) -> TwoStage {
+        let layout = sys.layout();
+        let (nb, m) = (layout.bodies(), layout.rows);
+        let mut pose = vec![Pose::default(); nb];
+        let mut vel = vec![Twist::default(); nb];
+        sys.initial_state(&mut pose, &mut vel);
+        let active = common::initial_activity(layout);
+
+        // Consistent λ⁰ and accelerations at t = 0.
+        let mut ce = ConstraintEval::new(m);
+        sys.constraints(0.0, &pose, &vel, Need::ALL, &mut ce);
+        let mut applied = vec![Wrench::default(); nb];
+        sys.applied(0.0, &pose, &vel, &mut applied);
+        let mut q0 = vec![Wrench::default(); nb];
+        qbar(layout, &applied, &vel, &mut q0);
+        let mut lambda = vec![0.0; m];
+        Index1::new(layout).solve(layout, &ce, &q0, &active, &mut lambda);
+        let mut flam = vec![Wrench::default(); nb];
+        bt_lambda(layout, &ce, &lambda, &active, &mut flam);
+
+        let mut asm = KAssembler::new(layout);
+        let mut k = DMatrix::zeros(m, m);
+        asm.assemble(layout, &ce, &active, 1.0, &mut k);
+        let kmax = (0..m).filter(|&r| active[r]).map(|r| k[(r, r)]).fold(0.0, f64::max);
+        let default_eps = match law {
+            Law::Penalty => h * h * kmax,
+            _ => 1e-9 * h * h * kmax,
+        };
+        let epsilon = epsilon.unwrap_or(default_eps.max(f64::MIN_POSITIVE));
+        let e = (0..m)
+            .map(|r| if layout.row_kind[r] == RowKind::Holonomic { epsilon } else { epsilon * h })
+            .collect();
+
+        let mut seq_b = Seq { pose: pose.clone(), vel: vel.clone() };
+        let mut seq_a = Seq { pose: pose.clone(), vel: vel.clone() };
+        let mut scale: f64 = 1.0;
+        for i in 0..nb {
+            let net = Wrench { f: q0[i].f - flam[i].f, t: q0[i].t - flam[i].t };
+            let a = accel(&layout.mass[i], &net);
+            seq_b.vel[i].v = vel[i].v - a.v * (h / 2.0);
+            seq_b.vel[i].w = vel[i].w - a.w * (h / 2.0);
+            let dr = vel[i].v * (h / 2.0) + a.v * (h * h / 8.0);
+            let phi = vel[i].w * (h / 2.0) + a.w * (h * h / 8.0);
+            seq_a.pose[i] = common::rotate_body(&pose[i], dr, phi);
+            scale = scale.max(pose[i].r.norm());
+        }
+
+        let mut s = TwoStage {
+            law,
+            name,
+            h,
+            single_stage,
+            paper_literal,
+            epsilon,
+            e,
+            tau: 0.0,
+            half_steps: 0,
+            trial: seq_b.clone(),
+            seq: [seq_b, seq_a],
+            x: 0,
+            lambda_prev: lambda.clone(),
+            tau_lambda: 0.0,
+            lambda0: lambda.clone(),
+            lambda,
+            next_active: active.clone(),
+            active,
+            r_prev: vec![0.0; m],
+            fresh: vec![true; m],
+            qbar: q0,
+            flam,
+            applied,
+            ce,
+            ce_trial: ConstraintEval::new(m),
+            tmp: vec![0.0; m],
+            res: vec![0.0; m],
+            dl: vec![0.0; m],
+            k,
+            asm,
+            solver: SymSolver::new(m),
+            tol: 1e-13 * scale,
+            iterations: 0,
+            lints: 0,
+            max_iterations: 0,
+            min_pivot_ratio: f64::INFINITY,
+        };
+        s.lambda_prev.copy_from_slice(&s.lambda);
+        s
+    }
+
+    /// The ε in use (m/N for position rows; for nonholonomic rows (m/s)/N).
+    pub fn epsilon(&self) -> f64 {
+        self.epsilon
+    }
+
+    /// Forces and constraints at τ for sequence `x` (positions at τ, velocities at τ − h/2),
+    /// with the synchronous velocities of sequence `y`.
+    fn evaluate<S: System>(&mut self, sys: &S, x: usize, y: usize) {
+        let layout = sys.layout();
+        let (px, vx, vy) = (&self.seq[x].pose, &self.seq[x].vel, &self.seq[y].vel);
+        sys.applied(self.tau, px, vx, &mut self.applied);
+        qbar(layout, &self.applied, vy, &mut self.qbar);
+        sys.constraints(self.tau, px, vy, Need::ALL, &mut self.ce);
+    }
+
+    /// Advance `src` by h with the current `qbar` and `flam` into `dst`.
+    fn cint(layout: &crate::system::Layout, h: f64, literal: bool, qbar: &[Wrench], flam: &[Wrench], src: &Seq, dst: &mut Seq) {
+        for i in 0..layout.bodies() {
+            (dst.pose[i], dst.vel[i]) = cint_body(&layout.mass[i], h, literal, &qbar[i], &flam[i], &src.pose[i], &src.vel[i]);
+        }
+    }
+
+    /// Advance `seq` by h in place.
+    fn cint_in_place(layout: &crate::system::Layout, h: f64, literal: bool, qbar: &[Wrench], flam: &[Wrench], seq: &mut Seq) {
+        for i in 0..layout.bodies() {
+            (seq.pose[i], seq.vel[i]) = cint_body(&layout.mass[i], h, literal, &qbar[i], &flam[i], &seq.pose[i], &seq.vel[i]);
+        }
+    }
+
+    /// Staggered LINT (exact form) for sequence `x`: Newton on λ until the positions after the
+    /// CINT satisfy `Φ = ε(λ − λ⁰)`. Leaves the advanced sequence in `self.trial`.
+    fn lint_exact<S: System>(&mut self, sys: &S, x: usize) -> Result<u32, StepError> {
+        let layout = sys.layout();
+        let h = self.h;
+        let m = layout.rows;
+        self.asm.assemble(layout, &self.ce, &self.active, h * h, &mut self.k);
+        for r in 0..m {
+            if self.active[r] {
+                self.k[(r, r)] += self.e[r];
+            }
+        }
+        self.factor(layout.rows, "LINT (εI + h²BM⁻¹Bᵀ)")?;
+        let t_end = self.tau + h;
+        for it in 0..MAX_NEWTON {
+            bt_lambda(layout, &self.ce, &self.lambda, &self.active, &mut self.flam);
+            let trial = std::mem::replace(&mut self.trial, Seq { pose: Vec::new(), vel: Vec::new() });
+            let mut trial = trial;
+            Self::cint(layout, h, self.paper_literal, &self.qbar, &self.flam, &self.seq[x], &mut trial);
+            sys.constraints(t_end, &trial.pose, &trial.vel, Need::PHI, &mut self.ce_trial);
+            // nonholonomic rows: average of the residual at the start and end positions
+            b_times(layout, &self.ce, &trial.vel, &mut self.tmp);
+            self.trial = trial;
+            let mut worst: f64 = 0.0;
+            for r in 0..m {
+                if !self.active[r] {
+                    self.res[r] = 0.0;
+                    continue;
+                }
+                let phi = if layout.row_kind[r] == RowKind::Holonomic {
+                    self.ce_trial.phi[r]
+                } else {
+                    h * 0.5 * (self.ce_trial.phi[r] + self.tmp[r] + self.ce.bias[r])
+                };
+                self.res[r] = phi - self.e[r] * (self.lambda[r] - self.lambda0[r]);
+                worst = worst.max(self.res[r].abs());
+            }
+            if worst <= self.tol {
+                return Ok(it);
+            }
+            self.solver.solve(&self.res, &mut self.dl);
+            for r in 0..m {
+                self.lambda[r] += self.dl[r];
+            }
+        }
+        Err(StepError::NoConvergence { what: "staggered LINT Newton iteration", iterations: MAX_NEWTON, residual: self.res.iter().fold(0.0, |a: f64, b| a.max(b.abs())) })
+    }
+
+    /// The paper's midpoint LINT (C3 eq. 34) for sequence `x`.
+    fn lint_midpoint<S: System>(&mut self, sys: &S, x: usize, lam_step: f64) -> Result<(), StepError> {
+        let layout = sys.layout();
+        let m = layout.rows;
+        let delta = self.h / 2.0;
+        // r: holonomic B(u̇_x + δ M⁻¹Q̄) + Φ_t ; nonholonomic δ(B M⁻¹ Q̄ − γ)
+        b_minv(layout, &self.ce, &self.qbar, &mut self.res);
+        b_times(layout, &self.ce, &self.seq[x].vel, &mut self.tmp);
+        for r in 0..m {
+            self.res[r] = if !self.active[r] {
+                0.0
+            } else if layout.row_kind[r] == RowKind::Holonomic {
+                self.tmp[r] + delta * self.res[r] + self.ce.bias[r]
+            } else {
+                delta * (self.res[r] - self.ce.gamma[r])
+            };
+        }
+        let rhs_factor = midpoint_rhs_factor(lam_step, self.paper_literal);
+        let e_mid = |e: f64, kind: RowKind| if kind == RowKind::Holonomic { e } else { e / self.h * delta };
+        self.asm.assemble(layout, &self.ce, &self.active, lam_step / 2.0 * delta, &mut self.k);
+        for r in 0..m {
+            if !self.active[r] {
+                self.tmp[r] = 0.0;
+                continue;
+            }
+            let e = e_mid(self.e[r], layout.row_kind[r]);
+            self.k[(r, r)] += e;
+            if self.fresh[r] {
+                self.r_prev[r] = self.res[r];
+                self.fresh[r] = false;
+            }
+            self.tmp[r] = e * self.lambda[r] + rhs_factor * (self.r_prev[r] + self.res[r]);
+        }
+        self.factor(m, "LINT (εI + h²/8·BM⁻¹Bᵀ)")?;
+        self.solver.solve(&self.tmp, &mut self.dl);
+        for r in 0..m {
+            self.lambda[r] = if self.active[r] { 2.0 * self.dl[r] - self.lambda[r] } else { 0.0 };
+        }
+        self.r_prev.copy_from_slice(&self.res);
+        Ok(())
+    }
+
+    /// Baumgarte's index-1 multipliers for sequence `x` (velocities of `y` at τ).
+    fn lint_baumgarte<S: System>(&mut self, sys: &S, y: usize, alpha: f64, beta: f64) -> Result<(), StepError> {
+        let layout = sys.layout();
+        let m = layout.rows;
+        b_minv(layout, &self.ce, &self.qbar, &mut self.res);
+        b_times(layout, &self.ce, &self.seq[y].vel, &mut self.tmp);
+        for r in 0..m {
+            if !self.active[r] {
+                self.res[r] = 0.0;
+                continue;
+            }
+            let rate = self.tmp[r] + self.ce.bias[r];
+            self.res[r] += -self.ce.gamma[r]
+                + if layout.row_kind[r] == RowKind::Holonomic {
+                    2.0 * alpha * rate + beta * beta * self.ce.phi[r]
+                } else {
+                    2.0 * alpha * self.ce.phi[r]
+                };
+        }
+        self.asm.assemble(layout, &self.ce, &self.active, 1.0, &mut self.k);
+        self.factor(m, "Baumgarte (BM⁻¹Bᵀ)")?;
+        self.solver.solve(&self.res, &mut self.lambda);
+        Ok(())
+    }
+
+    /// Cholesky of `self.k`; a pivot below 1e-14 of the largest is a singular matrix.
+    fn factor(&mut self, rows: usize, what: &'static str) -> Result<(), StepError> {
+        let rank = self.solver.factor_semidefinite(&self.k, 1e-14);
+        if rank < rows {
+            return Err(StepError::Singular { what, row: rank });
+        }
+        self.min_pivot_ratio = self.min_pivot_ratio.min(self.solver.pivot_ratio());
+        Ok(())
+    }
+
+    /// One half step (or a full step in single-stage mode) of sequence `x` at τ.
+    fn advance<S: System>(&mut self, sys: &S, x: usize, y: usize) -> Result<u32, StepError> {
+        let layout = sys.layout();
+        self.evaluate(sys, x, y);
+        self.lambda_prev.copy_from_slice(&self.lambda);
+        let mut iters = 0;
+        let advanced = match self.law.clone() {
+            Law::Staggered { lint: LintForm::Exact, .. } => {
+                iters = self.lint_exact(sys, x)?;
+                true
+            }
+            Law::Staggered { lint: LintForm::Midpoint, .. } => {
+                let lam_step = if self.single_stage { self.h } else { self.h / 2.0 };
+                self.lint_midpoint(sys, x, lam_step)?;
+                false
+            }
+            Law::Baumgarte { alpha, beta } => {
+                self.lint_baumgarte(sys, y, alpha, beta)?;
+                false
+            }
+            Law::Penalty => {
+                for r in 0..layout.rows {
+                    self.lambda[r] = if self.active[r] { self.ce.phi[r] / self.epsilon } else { 0.0 };
+                }
+                false
+            }
+        };
+        self.tau_lambda = self.tau;
+        self.lints += 1;
+        self.iterations += iters as u64;
+        self.max_iterations = self.max_iterations.max(iters);
+        if advanced {
+            std::mem::swap(&mut self.seq[x], &mut self.trial);
+        } else {
+            bt_lambda(layout, &self.ce, &self.lambda, &self.active, &mut self.flam);
+            Self::cint_in_place(layout, self.h, self.paper_literal, &self.qbar, &self.flam, &mut self.seq[x]);
+        }
+        Ok(iters)
+    }
+
+    fn check_locks<S: System>(&mut self, sys: &S) {
+        let vel_seq = if self.single_stage { self.x } else { 1 - self.x };
+        self.next_active.copy_from_slice(&self.active);
+        if sys.update_locks(&self.seq[self.x].pose, &self.seq[vel_seq].vel, &mut self.next_active).is_some() {
+            for r in 0..self.active.len() {
+                if self.next_active[r] && !self.active[r] {
+                    self.fresh[r] = true;
+                    self.lambda[r] = 0.0;
+                    self.lambda0[r] = 0.0;
+                }
+                self.active[r] = self.next_active[r];
+            }
+        }
+    }
+}
+
+/// Coefficient of `(r_prev + r)` in the midpoint LINT over a λ step `lam_step`: the
+/// consistent `lam_step/4` (h/8 for the half step), or the printed `lam_step/2` (h/4), whose
+/// fixed point is `2A⁻¹r` instead of `A⁻¹r` (notes A §1.6).
+fn midpoint_rhs_factor(lam_step: f64, paper_literal: bool) -> f64 {
+    if paper_literal {
+        lam_step / 2.0
+    } else {
+        lam_step / 4.0
+    }
+}
+
+/// CINT for one body: `u̇ + h M⁻¹(Q̄ − f_λ)`, then positions with the new velocity.
+#[inline]
+fn cint_body(m: &crate::system::MassProps, h: f64, literal: bool, qbar: &Wrench, flam: &Wrench, p: &Pose, v: &Twist) -> (Pose, Twist) {
+    let a = accel(m, &Wrench { f: qbar.f - flam.f, t: qbar.t - flam.t });
+    let v = Twist { v: v.v + a.v * h, w: v.w + a.w * h };
+    let q = cayley_update(&p.q, &v.w, h, literal);
+    (Pose { r: p.r + v.v * h, q, c: crate::math::rotation(&q) }, v)
+}
+
+impl<S: System> Integrator<S> for TwoStage {
+    fn name(&self) -> &'static str {
+        self.name
+    }
+
+    fn time(&self) -> f64 {
+        self.tau
+    }
+
+    fn step_size(&self) -> f64 {
+        self.h
+    }
+
+    fn step(&mut self, sys: &S) -> Result<StepInfo, StepError> {
+        let mut iterations = 0;
+        if self.single_stage {
+            iterations += self.advance(sys, 0, 0)?;
+            self.half_steps += 2;
+            self.tau = self.half_steps as f64 * self.h / 2.0;
+        } else {
+            for _ in 0..2 {
+                let x = self.x;
+                iterations += self.advance(sys, x, 1 - x)?;
+                self.half_steps += 1;
+                self.tau = self.half_steps as f64 * self.h / 2.0;
+                self.x = 1 - x;
+            }
+        }
+        self.check_locks(sys);
+        Ok(StepInfo { iterations })
+    }
+
+    fn state(&self, sys: &S, out: &mut State) {
+        let layout = sys.layout();
+        out.t = self.tau;
+        out.pose.copy_from_slice(&self.seq[self.x].pose);
+        if self.single_stage {
+            // velocity at t: the lagged one plus half a step of the last acceleration
+            for i in 0..layout.bodies() {
+                let net = Wrench { f: self.qbar[i].f - self.flam[i].f, t: self.qbar[i].t - self.flam[i].t };
+                let a = accel(&layout.mass[i], &net);
+                let v = self.seq[0].vel[i];
+                out.twist[i] = Twist { v: v.v - a.v * (self.h / 2.0), w: v.w - a.w * (self.h / 2.0) };
+            }
+        } else {
+            out.twist.copy_from_slice(&self.seq[1 - self.x].vel);
+        }
+        // λ was last computed at tau_lambda (h/2 or h before t): extrapolate linearly.
+        let dt = self.tau - self.tau_lambda;
+        let gap = if self.single_stage { self.h } else { self.h / 2.0 };
+        for r in 0..self.lambda.len() {
+            let slope = (self.lambda[r] - self.lambda_prev[r]) / gap;
+            out.lambda[r] = if self.active[r] { self.lambda[r] + slope * dt } else { 0.0 };
+        }
+    }
+
+    fn active(&self) -> &[bool] {
+        &self.active
+    }
+
+    fn stats(&self) -> Vec<(&'static str, f64)> {
+        let mut v = vec![("epsilon", self.epsilon)];
+        if matches!(self.law, Law::Staggered { lint: LintForm::Exact, .. }) {
+            v.push(("newton_iterations_mean", self.iterations as f64 / self.lints.max(1) as f64));
+            v.push(("newton_iterations_max", self.max_iterations as f64));
+        }
+        v.push(("min_pivot_ratio", self.min_pivot_ratio));
+        v
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use nalgebra::{Quaternion, Vector3};
+
+    use super::*;
+    use crate::integrators::testsys::RodPendulum;
+
+    /// Exact period of a physical pendulum (complete elliptic integral by AGM).
+    fn exact_period(sys: &RodPendulum) -> f64 {
+        let m = &sys.layout.mass[0];
+        let d = sys.l / 2.0;
+        let ip = m.j[(0, 0)] + m.m * d * d;
+        let w0 = (m.m * sys.g * d / ip).sqrt();
+        let k = (sys.theta0 / 2.0).sin();
+        let (mut a, mut b) = (1.0f64, (1.0 - k * k).sqrt());
+        for _ in 0..30 {
+            let (a1, b1) = ((a + b) / 2.0, (a * b).sqrt());
+            a = a1;
+            b = b1;
+        }
+        4.0 * std::f64::consts::PI / (2.0 * a) / w0
+    }
+
+    /// Period from the leftward zero crossings of the c.m. x coordinate; max |Φ| on the way.
+    fn measured_period(sys: &RodPendulum, it: &mut TwoStage, periods: usize) -> (f64, f64) {
+        let mut st = State::new(1, 3);
+        let mut crossings = Vec::new();
+        let mut prev: Option<(f64, f64)> = None;
+        let mut max_phi: f64 = 0.0;
+        while crossings.len() < periods + 1 {
+            it.step(sys).unwrap();
+            Integrator::<RodPendulum>::state(it, sys, &mut st);
+            let x = st.pose[0].r.x;
+            let phi = (st.pose[0].r + st.pose[0].c * Vector3::new(0.0, 0.0, sys.l / 2.0)).norm();
+            max_phi = max_phi.max(phi);
+            if let Some((t0, x0)) = prev {
+                if x0 > 0.0 && x <= 0.0 {
+                    crossings.push(t0 + (st.t - t0) * x0 / (x0 - x));
+                }
+            }
+            prev = Some((st.t, x));
+        }
+        ((crossings[periods] - crossings[0]) / periods as f64, max_phi)
+    }
+
+    #[test]
+    fn pendulum_period_is_second_order_and_constraint_does_not_drift() {
+        let sys = RodPendulum::new(1.0, 1.0, 0.01, 170f64.to_radians());
+        let exact = exact_period(&sys);
+        let mut errs = Vec::new();
+        for h in [4e-3, 2e-3, 1e-3] {
+            let mut it = TwoStage::staggered(&sys, h, &StaggeredOptions::default());
+            let (t, phi) = measured_period(&sys, &mut it, 3);
+            let err = (t - exact).abs() / exact;
+            eprintln!("h={h:e} period={t:.9} exact={exact:.9} rel={err:.3e} max|Φ|={phi:.3e}");
+            assert!(phi < 1e-10, "constraint violation {phi:e}");
+            errs.push(err);
+        }
+        let order = (errs[1] / errs[2]).log2();
+        assert!(errs[2] < 1e-5, "period error {:.3e} at h = 1e-3", errs[2]);
+        assert!((order - 2.0).abs() < 0.3, "observed order {order}");
+    }
+
+    #[test]
+    fn lint_steady_state_is_consistent() {
+        // A rod hanging at rest: λ must equal the weight (A⁻¹r). The exact LINT holds it from
+        // the consistent start; the corrected midpoint LINT converges to it from λ = 0, and
+        // the printed h/4 converges to twice the weight (notes A §1.6).
+        let sys = RodPendulum::new(2.0, 1.0, 0.01, 0.0);
+        let weight = 2.0 * 9.81;
+        let mut st = State::new(1, 3);
+        let mut it = TwoStage::staggered(&sys, 1e-3, &StaggeredOptions::default());
+        for _ in 0..1000 {
+            it.step(&sys).unwrap();
+        }
+        Integrator::<RodPendulum>::state(&it, &sys, &mut st);
+        assert!((st.lambda[2] + weight).abs() < 1e-9 * weight, "exact: λ = {:?}", st.lambda);
+        // Midpoint LINT: the scalar recursion (ε + (Δλ/2)δA) λ̃ = ελ + f(r + r), λ ← 2λ̃ − λ
+        // with constant A and r must settle at (δA)⁻¹r (δ = h/2) with the corrected coefficient.
+        let (h, a, r, eps) = (1e-2, 2.0, 3.0, 2e-5);
+        for (literal, expect) in [(false, 1.0), (true, 2.0)] {
+            let lam_step = h / 2.0;
+            let f = midpoint_rhs_factor(lam_step, literal);
+            let mut lam: f64 = 0.0;
+            for _ in 0..200 {
+                let lt = (eps * lam + f * 2.0 * r) / (eps + lam_step / 2.0 * (h / 2.0) * a);
+                lam = 2.0 * lt - lam;
+            }
+            assert!((lam / (r / (h / 2.0 * a)) - expect).abs() < 1e-9, "literal={literal}: λ = {lam}");
+        }
+    }
+
+    #[test]
+    fn midpoint_lint_is_not_robust_on_the_pendulum() {
+        // Documents why the exact form is the default (docs/methods.md).
+        let sys = RodPendulum::new(1.0, 1.0, 0.01, 170f64.to_radians());
+        let opts = StaggeredOptions { lint: LintForm::Midpoint, ..Default::default() };
+        let mut it = TwoStage::staggered(&sys, 1e-3, &opts);
+        let mut st = State::new(1, 3);
+        let mut worst: f64 = 0.0;
+        for _ in 0..8000 {
+            if it.step(&sys).is_err() {
+                worst = f64::INFINITY;
+                break;
+            }
+            Integrator::<RodPendulum>::state(&it, &sys, &mut st);
+            let phi = (st.pose[0].r + st.pose[0].c * Vector3::new(0.0, 0.0, 0.5)).norm();
+            if !phi.is_finite() {
+                worst = f64::INFINITY;
+                break;
+            }
+            worst = worst.max(phi);
+        }
+        assert!(worst > 1e-2, "the midpoint LINT stayed at |Φ| ≤ {worst:e}");
+    }
+
+    #[test]
+    fn cayley_preserves_norm() {
+        let q = Quaternion::new(0.5, 0.5, 0.5, 0.5);
+        let w = Vector3::new(3.0, -2.0, 1.0);
+        assert!((cayley_update(&q, &w, 0.1, false).norm() - 1.0).abs() < 1e-15);
+    }
+}
