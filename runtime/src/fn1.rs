@@ -384,6 +384,9 @@ pub fn table_eval(table: &[[f64; 2]], x: f64) -> (f64, f64) {
     if n == 0 {
         return (0.0, 0.0);
     }
+    if x.is_nan() {
+        return (f64::NAN, f64::NAN);
+    }
     if x < table[0][0] {
         return (table[0][1], 0.0);
     }
@@ -721,6 +724,9 @@ mod tests {
         assert_eq!(table_eval(&t, 3.0), (2.0, 0.0));
         assert_eq!(table_eval(&[[1.0, 4.0]], 7.0), (4.0, 0.0));
         assert_eq!(table_eval(&[], 7.0), (0.0, 0.0));
+        assert!(table_eval(&t, f64::NAN).0.is_nan());
+        // NaN propagates through everything without panicking
+        assert!(sncndn(f64::NAN, 0.5).0.is_nan() && ellipk(f64::NAN).is_nan());
         assert!(validate(&f).is_ok());
         assert!(validate(&Fn1::Table(bx(Fn1::Var), vec![[1.0, 0.0], [1.0, 2.0]])).is_err());
         assert!(validate(&Fn1::Table(bx(Fn1::Var), vec![])).is_err());

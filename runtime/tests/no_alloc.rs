@@ -243,3 +243,29 @@ fn per_step_methods_do_not_allocate() {
     let (_, c) = allocations(|| vec![1u8; 16]);
     assert!(c >= 1);
 }
+
+/// A NaN state (a diverged run) must flow through every per-step method as NaN, never
+/// as a panic, so that integrators can stop and report it.
+#[test]
+fn nan_state_does_not_panic() {
+    let sys = Interp::new(&scene()).unwrap();
+    let lay = sys.layout();
+    let n = lay.bodies();
+    let mut pose = vec![Pose::default(); n];
+    let mut twist = vec![Twist::default(); n];
+    sys.initial_state(&mut pose, &mut twist);
+    for p in pose.iter_mut() {
+        p.r = Vector3::new(f64::NAN, 0.0, f64::NAN);
+        p.q = nalgebra::Quaternion::new(f64::NAN, 0.0, 0.0, 0.0);
+        p.c[(0, 0)] = f64::NAN;
+    }
+    twist[0].w = Vector3::new(f64::INFINITY, f64::NAN, 0.0);
+    let mut w = vec![Wrench::default(); n];
+    let mut ev = ConstraintEval::new(lay.rows);
+    let mut active = vec![false; lay.rows];
+    sys.applied(f64::NAN, &pose, &twist, &mut w);
+    sys.constraints(f64::NAN, &pose, &twist, Need::ALL, &mut ev);
+    assert!(sys.potential_energy(0.0, &pose).is_nan());
+    let _ = sys.update_locks(&pose, &twist, &mut active);
+    assert!(ev.phi.iter().any(|v| v.is_nan()));
+}
