@@ -258,4 +258,10 @@ pub trait System: Sync {
     fn has_velocity_forces(&self) -> bool {
         true
     }
+
+    /// Whether `applied` depends on the state at all (springs, dampers, contact, forces
+    /// given in body axes). Implicit methods skip the force tangent when it does not.
+    fn has_state_forces(&self) -> bool {
+        true
+    }
 }

@@ -180,3 +180,87 @@ impl SymSolver {
         }
     }
 }
+
+/// Dense LU with partial pivoting, allocation-free after construction.
+pub struct Lu {
+    a: DMatrix<f64>,
+    piv: Vec<usize>,
+    n: usize,
+}
+
+impl Lu {
+    /// Buffers for an `n × n` matrix.
+    pub fn new(n: usize) -> Lu {
+        Lu { a: DMatrix::zeros(n, n), piv: vec![0; n], n }
+    }
+
+    /// Factor `m` (copied). Returns the index of a zero pivot if singular.
+    pub fn factor(&mut self, m: &DMatrix<f64>) -> Result<(), usize> {
+        let n = self.n;
+        self.a.copy_from(m);
+        let a = &mut self.a;
+        let mut scale: f64 = 0.0;
+        for v in a.iter() {
+            scale = scale.max(v.abs());
+        }
+        for k in 0..n {
+            let mut p = k;
+            let mut best = a[(k, k)].abs();
+            for i in k + 1..n {
+                if a[(i, k)].abs() > best {
+                    best = a[(i, k)].abs();
+                    p = i;
+                }
+            }
+            if best <= 1e-300_f64.max(scale * 1e-15) {
+                return Err(k);
+            }
+            self.piv[k] = p;
+            if p != k {
+                a.swap_rows(p, k);
+            }
+            let d = a[(k, k)];
+            for i in k + 1..n {
+                a[(i, k)] /= d;
+            }
+            for j in k + 1..n {
+                let akj = a[(k, j)];
+                if akj == 0.0 {
+                    continue;
+                }
+                for i in k + 1..n {
+                    a[(i, j)] -= a[(i, k)] * akj;
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Diagonal entry `k` of U (the k-th pivot) of the last factorization.
+    pub fn diag(&self, k: usize) -> f64 {
+        self.a[(k, k)]
+    }
+
+    /// Solve in place with the last factorization.
+    pub fn solve(&self, b: &mut [f64]) {
+        let n = self.n;
+        let a = &self.a;
+        for k in 0..n {
+            b.swap(k, self.piv[k]);
+        }
+        for i in 0..n {
+            let mut s = b[i];
+            for k in 0..i {
+                s -= a[(i, k)] * b[k];
+            }
+            b[i] = s;
+        }
+        for i in (0..n).rev() {
+            let mut s = b[i];
+            for k in i + 1..n {
+                s -= a[(i, k)] * b[k];
+            }
+            b[i] = s / a[(i, i)];
+        }
+    }
+}

@@ -3,6 +3,8 @@
 //!
 //! | method | module | paper |
 //! |---|---|---|
+//! | `coordinate_partitioning` | [`partitioning`] | generalized coordinate partitioning, notes A §1.3 |
+//! | `implicit_trapezoid` | [`trapezoid`] | simultaneous trapezoidal rule with Newton, notes A §1.2 |
 //! | `staggered`, `baumgarte`, `penalty` | [`staggered`] | two-stage CINT with three constraint-force modules, notes A §1.4–1.9, C §3 |
 //!
 //! All integrators are generic over the system, so generated code is monomorphized
@@ -10,7 +12,9 @@
 
 pub mod common;
 mod dense;
+pub mod partitioning;
 pub mod staggered;
+pub mod trapezoid;
 #[cfg(test)]
 pub(crate) mod testsys;
 

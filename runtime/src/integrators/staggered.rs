@@ -78,7 +78,7 @@ struct Seq {
 /// The constraint-force module.
 #[derive(Clone, Debug)]
 enum Law {
-    Staggered { lint: LintForm, paper_literal: bool },
+    Staggered { lint: LintForm },
     Baumgarte { alpha: f64, beta: f64 },
     Penalty,
 }
@@ -134,7 +134,7 @@ const MAX_NEWTON: u32 = 25;
 impl TwoStage {
     /// The staggered explicit–implicit method.
     pub fn staggered<S: System>(sys: &S, h: f64, opts: &StaggeredOptions) -> TwoStage {
-        let law = Law::Staggered { lint: opts.lint, paper_literal: opts.paper_literal };
+        let law = Law::Staggered { lint: opts.lint };
         TwoStage::new(sys, h, law, "staggered", opts.epsilon, opts.single_stage, opts.paper_literal)
     }
 

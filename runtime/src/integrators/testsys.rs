@@ -87,6 +87,9 @@ impl System for RodPendulum {
             out.gamma[..3].copy_from_slice(g.as_slice());
         }
     }
+    fn has_state_forces(&self) -> bool {
+        false
+    }
     fn potential_energy(&self, _t: f64, pose: &[Pose]) -> f64 {
         self.layout.mass[0].m * self.g * pose[0].r.z
     }
