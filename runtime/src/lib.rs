@@ -18,6 +18,7 @@ pub mod scene;
 pub mod system;
 pub mod math;
 pub mod topology;
+pub mod linalg;
 pub mod fn1;
 pub mod joints;
 pub mod forces;
