@@ -3,5 +3,37 @@
 //! Front end only: argument parsing, rendering diagnostics (miette), progress bars, plots
 //! and driving cargo for generated scenes. The work is done by `mbdc-compiler` and
 //! `mbdc-runtime`.
+//!
+//! Each subcommand lives in its own module under `commands/` with an `Args` struct (clap
+//! derive) and a `run(args) -> ExitCode` function; add a variant to [`Command`] to add one.
 
-fn main() {}
+mod commands;
+mod render;
+
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand};
+
+/// mbdc: a compiler for multibody and structural dynamics scenes (.mbd files).
+#[derive(Debug, Parser)]
+#[command(name = "mbdc", version, about, long_about = None, propagate_version = true)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+enum Command {
+    /// Check a scene: print its diagnostics and a summary.
+    Check(commands::check::Args),
+    /// Format .mbd files in place (or check that they are formatted).
+    Fmt(commands::fmt::Args),
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    match cli.command {
+        Command::Check(a) => commands::check::run(a),
+        Command::Fmt(a) => commands::fmt::run(a),
+    }
+}

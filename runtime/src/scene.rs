@@ -493,6 +493,29 @@ impl ElementKind {
             _ => 2,
         }
     }
+
+    /// Local faces (3-D elements), edges (2-D elements) or end points (bars) as local node
+    /// indices, ordered so that the normal points outward for a positively oriented
+    /// element (counter-clockwise 2-D nodes; hex8 bottom face 0-1-2-3 counter-clockwise seen
+    /// from above, top 4-5-6-7). [`NodeSet::faces`] refers to them by index in this list.
+    pub fn faces(self) -> &'static [&'static [usize]] {
+        match self {
+            ElementKind::Bar2 => &[&[0], &[1]],
+            ElementKind::Tri3PlaneStress | ElementKind::Tri3PlaneStrain => &[&[0, 1], &[1, 2], &[2, 0]],
+            ElementKind::Quad4PlaneStress | ElementKind::Quad4PlaneStrain => {
+                &[&[0, 1], &[1, 2], &[2, 3], &[3, 0]]
+            }
+            ElementKind::Tet4 => &[&[0, 2, 1], &[0, 1, 3], &[1, 2, 3], &[0, 3, 2]],
+            ElementKind::Hex8 => &[
+                &[0, 3, 2, 1],
+                &[4, 5, 6, 7],
+                &[0, 1, 5, 4],
+                &[1, 2, 6, 5],
+                &[2, 3, 7, 6],
+                &[3, 0, 4, 7],
+            ],
+        }
+    }
 }
 
 /// An isotropic linear-elastic material.

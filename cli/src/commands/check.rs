@@ -1,0 +1,92 @@
+//! `mbdc check FILE`: diagnostics and a summary of the scene.
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use mbdc_compiler::Override;
+
+use crate::render;
+
+/// Arguments of `mbdc check`.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// The .mbd file.
+    pub file: PathBuf,
+    /// Override a parameter: `--set L=2m` (repeatable).
+    #[arg(long = "set", value_name = "NAME=VALUE", value_parser = parse_override)]
+    pub set: Vec<Override>,
+    /// Print the set of effects the scene uses.
+    #[arg(long)]
+    pub effects: bool,
+    /// Print the lowered scene as JSON (SI units) instead of the summary.
+    #[arg(long)]
+    pub json: bool,
+}
+
+fn parse_override(s: &str) -> Result<Override, String> {
+    s.parse()
+}
+
+/// Runs `mbdc check`.
+pub fn run(args: Args) -> ExitCode {
+    let loaded = mbdc_compiler::load_file(&args.file, &args.set);
+    if !loaded.diagnostics.is_empty() {
+        eprint!(
+            "{}",
+            render::diagnostics(&loaded.diagnostics, &loaded.sources)
+        );
+    }
+    let Some(scene) = &loaded.scene else {
+        eprintln!(
+            "{}: {}",
+            args.file.display(),
+            render::counts(&loaded.diagnostics)
+        );
+        return ExitCode::FAILURE;
+    };
+    if args.json {
+        match serde_json::to_string_pretty(scene) {
+            Ok(s) => println!("{s}"),
+            Err(e) => {
+                eprintln!("error: cannot serialise the scene: {e}");
+                return ExitCode::FAILURE;
+            }
+        }
+        return ExitCode::SUCCESS;
+    }
+    let summary = mbdc_compiler::summary(scene);
+    print!("{summary}");
+    if args.effects {
+        let e = scene.effects();
+        println!("effects:");
+        let names = e.names();
+        for n in [
+            "gravity",
+            "applied_forces",
+            "time_dependence",
+            "springs",
+            "dampers",
+            "drivers",
+            "closed_loops",
+            "nonholonomic",
+            "locks",
+            "beams",
+            "meshes",
+            "contact",
+        ] {
+            println!(
+                "  {:<16} {}",
+                n,
+                if names.contains(&n) { "yes" } else { "no" }
+            );
+        }
+    }
+    if !loaded.diagnostics.is_empty() {
+        eprintln!(
+            "{}: {}",
+            args.file.display(),
+            render::counts(&loaded.diagnostics)
+        );
+    }
+    ExitCode::SUCCESS
+}

@@ -1,0 +1,1141 @@
+//! Finite-element meshes: generation (structured rectangles and boxes), Gmsh import,
+//! node sets, boundary conditions and loads.
+
+use std::collections::HashMap;
+
+use mbdc_dsl::ast::{Expr, ExprKind, ItemKind, Span};
+use mbdc_runtime::scene::{ElementKind, Fn1, Mesh, MeshCondition, NodeSet, Vec3};
+
+use super::body::num;
+use super::msh;
+use super::props::{one, req, Key};
+use super::{Lowerer, PDecl, Reported, Scope, R};
+use crate::diag::{codes, Diagnostic};
+use crate::env::BindKind;
+use crate::eval::ident_of;
+use crate::source::Sources;
+use crate::units::Dim;
+use crate::value::{Value, Q};
+
+/// Most nodes or elements in one mesh.
+pub const MAX_MESH_ITEMS: usize = 2_000_000;
+
+const MESH_KEYS: &[Key] = &[
+    Key {
+        name: "element",
+        min: 1,
+        max: 2,
+        repeat: false,
+    },
+    one("thickness"),
+    one("generate"),
+    one("material"),
+    Key {
+        name: "fix",
+        min: 1,
+        max: 1,
+        repeat: true,
+    },
+    Key {
+        name: "displace",
+        min: 2,
+        max: 2,
+        repeat: true,
+    },
+    Key {
+        name: "load",
+        min: 2,
+        max: 2,
+        repeat: true,
+    },
+    Key {
+        name: "traction",
+        min: 2,
+        max: 2,
+        repeat: true,
+    },
+    one("body_force"),
+    Key {
+        name: "foundation",
+        min: 2,
+        max: 2,
+        repeat: true,
+    },
+];
+
+const ELEMENT_KINDS: &[&str] = &["bar2", "tri3", "quad4", "tet4", "hex8"];
+
+/// Structured rectangle in the x–y plane: nodes `j (nx+1) + i`; quads counter-clockwise,
+/// or each quad split into two triangles along its (i, j)–(i+1, j+1) diagonal.
+pub fn rect_mesh(
+    origin: Vec3,
+    size: [f64; 2],
+    n: [usize; 2],
+    tri: bool,
+) -> (Vec<Vec3>, Vec<Vec<usize>>) {
+    let (nx, ny) = (n[0], n[1]);
+    let mut nodes = Vec::with_capacity((nx + 1) * (ny + 1));
+    for j in 0..=ny {
+        for i in 0..=nx {
+            nodes.push([
+                origin[0] + size[0] * i as f64 / nx as f64,
+                origin[1] + size[1] * j as f64 / ny as f64,
+                0.0,
+            ]);
+        }
+    }
+    let id = |i: usize, j: usize| j * (nx + 1) + i;
+    let mut elems = Vec::with_capacity(nx * ny * if tri { 2 } else { 1 });
+    for j in 0..ny {
+        for i in 0..nx {
+            let (a, b, c, d) = (id(i, j), id(i + 1, j), id(i + 1, j + 1), id(i, j + 1));
+            if tri {
+                elems.push(vec![a, b, c]);
+                elems.push(vec![a, c, d]);
+            } else {
+                elems.push(vec![a, b, c, d]);
+            }
+        }
+    }
+    (nodes, elems)
+}
+
+/// Structured box: nodes `k (nx+1)(ny+1) + j (nx+1) + i`; hex8 in the usual order (bottom
+/// face counter-clockwise seen from above, then top), or each hex split into 6 tetrahedra
+/// around its (0,0,0)–(1,1,1) diagonal (a conforming Kuhn split), all positively oriented.
+pub fn box_mesh(
+    origin: Vec3,
+    size: Vec3,
+    n: [usize; 3],
+    tet: bool,
+) -> (Vec<Vec3>, Vec<Vec<usize>>) {
+    let (nx, ny, nz) = (n[0], n[1], n[2]);
+    let mut nodes = Vec::with_capacity((nx + 1) * (ny + 1) * (nz + 1));
+    for k in 0..=nz {
+        for j in 0..=ny {
+            for i in 0..=nx {
+                nodes.push([
+                    origin[0] + size[0] * i as f64 / nx as f64,
+                    origin[1] + size[1] * j as f64 / ny as f64,
+                    origin[2] + size[2] * k as f64 / nz as f64,
+                ]);
+            }
+        }
+    }
+    let id = |i: usize, j: usize, k: usize| k * (nx + 1) * (ny + 1) + j * (nx + 1) + i;
+    let mut elems = Vec::new();
+    for k in 0..nz {
+        for j in 0..ny {
+            for i in 0..nx {
+                let c = |a: usize, b: usize, d: usize| id(i + a, j + b, k + d);
+                if !tet {
+                    elems.push(vec![
+                        c(0, 0, 0),
+                        c(1, 0, 0),
+                        c(1, 1, 0),
+                        c(0, 1, 0),
+                        c(0, 0, 1),
+                        c(1, 0, 1),
+                        c(1, 1, 1),
+                        c(0, 1, 1),
+                    ]);
+                    continue;
+                }
+                let paths: [[(usize, usize, usize); 2]; 6] = [
+                    [(1, 0, 0), (1, 1, 0)],
+                    [(1, 0, 0), (1, 0, 1)],
+                    [(0, 1, 0), (1, 1, 0)],
+                    [(0, 1, 0), (0, 1, 1)],
+                    [(0, 0, 1), (1, 0, 1)],
+                    [(0, 0, 1), (0, 1, 1)],
+                ];
+                for p in paths {
+                    let mut t = vec![
+                        c(0, 0, 0),
+                        c(p[0].0, p[0].1, p[0].2),
+                        c(p[1].0, p[1].1, p[1].2),
+                        c(1, 1, 1),
+                    ];
+                    if tet_volume(&nodes, &t) < 0.0 {
+                        t.swap(1, 2);
+                    }
+                    elems.push(t);
+                }
+            }
+        }
+    }
+    (nodes, elems)
+}
+
+fn tet_volume(nodes: &[Vec3], t: &[usize]) -> f64 {
+    let p = |i: usize| nalgebra::Vector3::from(nodes[t[i]]);
+    (p(1) - p(0)).cross(&(p(2) - p(0))).dot(&(p(3) - p(0))) / 6.0
+}
+
+/// Faces (2-D: edges) that belong to exactly one element: (element, local face).
+pub fn boundary_faces(kind: ElementKind, elements: &[Vec<usize>]) -> Vec<(usize, usize)> {
+    let faces = kind.faces();
+    let mut count: HashMap<Vec<usize>, (usize, usize, usize)> = HashMap::new();
+    for (e, conn) in elements.iter().enumerate() {
+        for (f, local) in faces.iter().enumerate() {
+            let mut key: Vec<usize> = local.iter().map(|&i| conn[i]).collect();
+            key.sort_unstable();
+            count
+                .entry(key)
+                .and_modify(|c| c.0 += 1)
+                .or_insert((1, e, f));
+        }
+    }
+    let mut out: Vec<(usize, usize)> = count
+        .into_values()
+        .filter(|c| c.0 == 1)
+        .map(|c| (c.1, c.2))
+        .collect();
+    out.sort_unstable();
+    out
+}
+
+fn bbox(nodes: &[Vec3]) -> ([f64; 3], [f64; 3]) {
+    let mut lo = [f64::INFINITY; 3];
+    let mut hi = [f64::NEG_INFINITY; 3];
+    for n in nodes {
+        for k in 0..3 {
+            lo[k] = lo[k].min(n[k]);
+            hi[k] = hi[k].max(n[k]);
+        }
+    }
+    (lo, hi)
+}
+
+struct Imported {
+    data: msh::MshData,
+    tag_to_index: HashMap<usize, usize>,
+    file: crate::source::FileId,
+}
+
+impl<'a> Lowerer<'a> {
+    pub(crate) fn lower_mesh(&mut self, d: &PDecl<'a>) -> R<Mesh> {
+        let sc = &d.sc;
+        let what = format!("mesh `{}`", d.name);
+        let Some(block) = d.block else {
+            return Err(Reported);
+        };
+        let props = self.props(block, sc, &what, MESH_KEYS, &["set", "import"]);
+        // Element kind.
+        let kind = match props.get("element") {
+            None => Err(self.missing(
+                &props,
+                "element",
+                &what,
+                sc,
+                d.name_span,
+                "element quad4, plane_stress",
+            )),
+            Some(p) => self.element_kind(p.values, sc),
+        };
+        let material = match props.value("material") {
+            Some(e) => self.material_ref(e, sc),
+            None => Err(self.missing(&props, "material", &what, sc, d.name_span, "material steel")),
+        };
+        let kind = kind?;
+        let needs_thickness = kind.dim() == 2 || kind == ElementKind::Bar2;
+        let thickness = match (props.value("thickness"), needs_thickness) {
+            (Some(e), true) => {
+                if kind == ElementKind::Bar2 {
+                    self.positive(e, sc, Dim::AREA, "a bar cross-section area")
+                } else {
+                    self.positive(e, sc, Dim::LENGTH, "a thickness")
+                }
+            }
+            (None, true) => Err(self.missing(
+                &props,
+                "thickness",
+                &what,
+                sc,
+                d.name_span,
+                if kind == ElementKind::Bar2 {
+                    "thickness 1 cm^2  // the bar area"
+                } else {
+                    "thickness 5 mm"
+                },
+            )),
+            (Some(e), false) => Err(self.report(
+                Diagnostic::error(codes::MESH, "a 3-D mesh has no thickness")
+                    .primary(sc.file, e.span, "")
+                    .help("remove `thickness`; it is for 2-D elements (thickness) and bars (area)"),
+            )),
+            (None, false) => Ok(1.0),
+        };
+        // Nodes and elements.
+        let mut imported: Option<Imported> = None;
+        let imports: Vec<&mbdc_dsl::ast::Item> = props
+            .decls
+            .iter()
+            .copied()
+            .filter(|i| matches!(i.kind, ItemKind::Import { .. }))
+            .collect();
+        if imports.len() > 1 {
+            self.report(
+                Diagnostic::error(
+                    codes::DUPLICATE_PROPERTY,
+                    format!("`import` is given twice in {what}"),
+                )
+                .primary(sc.file, imports[1].span, "second")
+                .secondary(sc.file, imports[0].span, "first"),
+            );
+        }
+        let import = imports.first().and_then(|i| match &i.kind {
+            ItemKind::Import { path } => Some((path, i.span)),
+            _ => None,
+        });
+        let geometry: R<(Vec<Vec3>, Vec<Vec<usize>>)> = match (props.get("generate"), import) {
+            (Some(g), None) => self.generate(&g.values[0], sc, kind),
+            (None, Some((path, _))) => match self.import_msh(&path.value, path.span, sc, kind) {
+                Ok((nodes, elems, imp)) => {
+                    imported = Some(imp);
+                    Ok((nodes, elems))
+                }
+                Err(r) => Err(r),
+            },
+            (None, None) => Err(self.report(
+                Diagnostic::error(codes::MISSING_PROPERTY, format!("{what} has no nodes"))
+                    .primary(sc.file, d.name_span, "")
+                    .help("add `generate rect(...)`, `generate box(...)` or `import \"part.msh\"`"),
+            )),
+            (Some(g), Some((_, ispan))) => Err(self.report(
+                Diagnostic::error(
+                    codes::MESH,
+                    format!("{what} has both `generate` and `import`"),
+                )
+                .primary(sc.file, g.span, "")
+                .primary(sc.file, ispan, "")
+                .help("keep one"),
+            )),
+        };
+        let (material, thickness, (nodes, elements)) = (material?, thickness?, geometry?);
+        let (lo, hi) = bbox(&nodes);
+        let diag =
+            ((hi[0] - lo[0]).powi(2) + (hi[1] - lo[1]).powi(2) + (hi[2] - lo[2]).powi(2)).sqrt();
+        let tol = 1e-9 * if diag > 0.0 { diag } else { 1.0 };
+        // Sets.
+        let mut sets: Vec<NodeSet> = Vec::new();
+        let mut set_spans: Vec<Span> = Vec::new();
+        let mut boundary: Option<Vec<(usize, usize)>> = None;
+        let mut ok = true;
+        for item in &props.decls {
+            let ItemKind::Decl {
+                name, value, body, ..
+            } = &item.kind
+            else {
+                continue;
+            };
+            let _ = Span::default();
+            let (Some(name), Some(value), None) = (name, value, body) else {
+                self.report(
+                    Diagnostic::error(
+                        codes::MESH,
+                        "a set is `set NAME = nodes(PREDICATE)` or `set NAME = group(\"name\")`",
+                    )
+                    .primary(sc.file, item.span, ""),
+                );
+                ok = false;
+                continue;
+            };
+            if !name.indices.is_empty() {
+                self.report(
+                    Diagnostic::error(codes::MESH, "set names cannot be indexed")
+                        .primary(sc.file, name.span, ""),
+                );
+                ok = false;
+                continue;
+            }
+            let sname = name.base.name.clone();
+            if let Some(i) = sets.iter().position(|s| s.name == sname) {
+                self.report(
+                    Diagnostic::error(
+                        codes::DUPLICATE_NAME,
+                        format!("set `{sname}` is declared twice in {what}"),
+                    )
+                    .primary(sc.file, name.span, "second")
+                    .secondary(sc.file, set_spans[i], "first"),
+                );
+                ok = false;
+                continue;
+            }
+            let members = match self.set_members(value, sc, &nodes, tol, imported.as_ref()) {
+                Ok(m) => m,
+                Err(_) => {
+                    ok = false;
+                    continue;
+                }
+            };
+            if members.is_empty() {
+                self.report(
+                    Diagnostic::error(codes::MESH, format!("set `{sname}` of {what} is empty"))
+                        .primary(sc.file, value.span, "no node matches")
+                        .help(format!(
+                            "the nodes span x ∈ [{}, {}], y ∈ [{}, {}], z ∈ [{}, {}] m",
+                            num(lo[0]),
+                            num(hi[0]),
+                            num(lo[1]),
+                            num(hi[1]),
+                            num(lo[2]),
+                            num(hi[2])
+                        )),
+                );
+                ok = false;
+                sets.push(NodeSet {
+                    name: sname,
+                    nodes: members,
+                    faces: Vec::new(),
+                });
+                set_spans.push(name.span);
+                continue;
+            }
+            let bf = boundary.get_or_insert_with(|| boundary_faces(kind, &elements));
+            let mut inset = vec![false; nodes.len()];
+            for &m in &members {
+                inset[m] = true;
+            }
+            let faces: Vec<(usize, usize)> = bf
+                .iter()
+                .copied()
+                .filter(|&(e, f)| kind.faces()[f].iter().all(|&l| inset[elements[e][l]]))
+                .collect();
+            sets.push(NodeSet {
+                name: sname,
+                nodes: members,
+                faces,
+            });
+            set_spans.push(name.span);
+        }
+        // Conditions, in order.
+        let mut conditions = Vec::new();
+        let mut body_force_seen = false;
+        for p in &props.list {
+            let key = p.key.name.as_str();
+            if !matches!(
+                key,
+                "fix" | "displace" | "load" | "traction" | "body_force" | "foundation"
+            ) {
+                continue;
+            }
+            let r = self.condition(key, p.values, sc, &sets, kind);
+            match r {
+                Ok(c) => {
+                    body_force_seen |= matches!(c, MeshCondition::BodyForce { .. });
+                    conditions.push(c)
+                }
+                Err(_) => ok = false,
+            }
+        }
+        let _ = body_force_seen;
+        if !ok {
+            return Err(Reported);
+        }
+        Ok(Mesh {
+            name: d.name.clone(),
+            kind,
+            material,
+            thickness,
+            nodes,
+            elements,
+            node_sets: sets,
+            conditions,
+            origin: Sources::origin(sc.file, d.span),
+        })
+    }
+
+    fn element_kind(&mut self, values: &[Expr], sc: &Scope) -> R<ElementKind> {
+        let e = &values[0];
+        let Some(k) = ident_of(e) else {
+            return Err(self.report(
+                Diagnostic::error(
+                    codes::WRONG_KIND,
+                    "an element kind is one of bar2, tri3, quad4, tet4, hex8",
+                )
+                .primary(sc.file, e.span, ""),
+            ));
+        };
+        let plane = match values.get(1) {
+            None => None,
+            Some(p) => match ident_of(p) {
+                Some(s @ ("plane_stress" | "plane_strain")) => Some((s, p.span)),
+                _ => {
+                    return Err(self.report(
+                        Diagnostic::error(
+                            codes::WRONG_KIND,
+                            "the second value of `element` is `plane_stress` or `plane_strain`",
+                        )
+                        .primary(sc.file, p.span, ""),
+                    ))
+                }
+            },
+        };
+        let strain = plane.is_some_and(|p| p.0 == "plane_strain");
+        let kind = match k {
+            "bar2" => ElementKind::Bar2,
+            "tet4" => ElementKind::Tet4,
+            "hex8" => ElementKind::Hex8,
+            "tri3" if strain => ElementKind::Tri3PlaneStrain,
+            "tri3" => ElementKind::Tri3PlaneStress,
+            "quad4" if strain => ElementKind::Quad4PlaneStrain,
+            "quad4" => ElementKind::Quad4PlaneStress,
+            other => {
+                let help = match crate::suggest::closest(other, ELEMENT_KINDS.iter().copied()) {
+                    Some(s) => format!("did you mean `{s}`?"),
+                    None => format!("element kinds: {}", ELEMENT_KINDS.join(", ")),
+                };
+                return Err(self.report(
+                    Diagnostic::error(
+                        codes::UNKNOWN_NAME,
+                        format!("unknown element kind `{other}`"),
+                    )
+                    .primary(sc.file, e.span, "")
+                    .help(help),
+                ));
+            }
+        };
+        if let Some((s, sp)) = plane {
+            if kind.dim() != 2 {
+                return Err(self.report(
+                    Diagnostic::error(
+                        codes::MESH,
+                        format!("`{s}` applies to 2-D elements (tri3, quad4), not to {k}"),
+                    )
+                    .primary(sc.file, sp, ""),
+                ));
+            }
+        }
+        Ok(kind)
+    }
+
+    fn generate(
+        &mut self,
+        e: &'a Expr,
+        sc: &Scope,
+        kind: ElementKind,
+    ) -> R<(Vec<Vec3>, Vec<Vec<usize>>)> {
+        let ExprKind::Call { func, args } = &e.kind else {
+            return Err(self.report(
+                Diagnostic::error(codes::WRONG_KIND, "`generate` takes `rect(origin:, size:, divisions:)` or `box(origin:, size:, divisions:)`")
+                    .primary(sc.file, e.span, ""),
+            ));
+        };
+        let shape = func.name.as_str();
+        let is_rect = match shape {
+            "rect" => true,
+            "box" => false,
+            other => {
+                return Err(self.report(
+                    Diagnostic::error(codes::UNKNOWN_NAME, format!("unknown mesh generator `{other}`"))
+                        .primary(sc.file, func.span, "")
+                        .help("generators: rect(origin:, size:, divisions:) for tri3/quad4, box(origin:, size:, divisions:) for tet4/hex8"),
+                ))
+            }
+        };
+        let fits = if is_rect {
+            kind.dim() == 2
+        } else {
+            matches!(kind, ElementKind::Tet4 | ElementKind::Hex8)
+        };
+        if !fits {
+            return Err(self.report(
+                Diagnostic::error(
+                    codes::MESH,
+                    format!("`{shape}` cannot generate {} elements", element_name(kind)),
+                )
+                .primary(sc.file, func.span, "")
+                .help(if kind == ElementKind::Bar2 {
+                    "bar2 meshes are imported from .msh files".to_string()
+                } else if is_rect {
+                    "use `box(...)` for tet4 and hex8".to_string()
+                } else {
+                    "use `rect(...)` for tri3 and quad4".to_string()
+                }),
+            ));
+        }
+        let a = self.call_args(
+            func,
+            args,
+            &[req("origin"), req("size"), req("divisions")],
+            sc,
+            e.span,
+        )?;
+        let (Some(oe), Some(se), Some(de)) = (a[0], a[1], a[2]) else {
+            return Err(Reported);
+        };
+        let origin = self.vec23(oe, sc, Dim::LENGTH, "a mesh origin");
+        let n = if is_rect { 2 } else { 3 };
+        let size = self.vector(se, sc).and_then(|v| {
+            if v.len() != n {
+                return Err(self.report(
+                    Diagnostic::error(
+                        codes::WRONG_KIND,
+                        format!("`size` needs {n} components, found {}", v.len()),
+                    )
+                    .primary(sc.file, se.span, ""),
+                ));
+            }
+            let mut out = [0.0; 3];
+            for (i, q) in v.iter().enumerate() {
+                self.expect_dim(q, Dim::LENGTH, se.span, sc, "a mesh size")?;
+                out[i] = self.constant_of(q, se.span, sc, "a mesh size")?;
+                if out[i] <= 0.0 {
+                    return Err(self.report(
+                        Diagnostic::error(codes::INVALID_VALUE, "mesh sizes must be positive")
+                            .primary(sc.file, se.span, ""),
+                    ));
+                }
+            }
+            Ok(out)
+        });
+        let div = match self.eval(de, sc) {
+            Ok(Value::Tuple(items)) if items.len() == n => {
+                let mut out = [1usize; 3];
+                let mut bad = false;
+                for (i, it) in items.into_iter().enumerate() {
+                    match self.scalar_of(it, de.span, sc) {
+                        Ok(q)
+                            if q.dim.is_none()
+                                && q.constant()
+                                    .is_some_and(|c| c >= 1.0 && c.fract() == 0.0 && c < 1e9) =>
+                        {
+                            out[i] = q.constant().unwrap_or(1.0) as usize
+                        }
+                        Ok(_) => {
+                            self.report(
+                                Diagnostic::error(
+                                    codes::INVALID_VALUE,
+                                    "divisions must be positive integers",
+                                )
+                                .primary(sc.file, de.span, ""),
+                            );
+                            bad = true;
+                        }
+                        Err(_) => bad = true,
+                    }
+                }
+                if bad {
+                    Err(Reported)
+                } else {
+                    Ok(out)
+                }
+            }
+            Ok(other) => Err(self.report(
+                Diagnostic::error(
+                    codes::WRONG_KIND,
+                    format!("`divisions` needs {n} integers, found {}", other.kind()),
+                )
+                .primary(sc.file, de.span, ""),
+            )),
+            Err(r) => Err(r),
+        };
+        let (origin, size, div) = (origin?, size?, div?);
+        if is_rect && origin[2] != 0.0 {
+            return Err(self.report(
+                Diagnostic::error(codes::MESH, "2-D meshes lie in the plane z = 0")
+                    .primary(sc.file, oe.span, "")
+                    .help("give a 2-D origin `(x, y)`"),
+            ));
+        }
+        let nodes: u128 = div[..n].iter().map(|d| (*d + 1) as u128).product();
+        let cells: u128 = div[..n].iter().map(|d| *d as u128).product::<u128>()
+            * match kind {
+                ElementKind::Tet4 => 6,
+                ElementKind::Tri3PlaneStress | ElementKind::Tri3PlaneStrain => 2,
+                _ => 1,
+            };
+        if nodes > MAX_MESH_ITEMS as u128 || cells > MAX_MESH_ITEMS as u128 {
+            return Err(self.report(
+                Diagnostic::error(
+                    codes::LIMIT,
+                    format!("this mesh would have {nodes} nodes and {cells} elements, more than the limit of {}", super::expand::fmt_count(MAX_MESH_ITEMS)),
+                )
+                .primary(sc.file, de.span, "")
+                .help("reduce the divisions"),
+            ));
+        }
+        let tri = matches!(
+            kind,
+            ElementKind::Tri3PlaneStress | ElementKind::Tri3PlaneStrain
+        );
+        Ok(if is_rect {
+            rect_mesh(origin, [size[0], size[1]], [div[0], div[1]], tri)
+        } else {
+            box_mesh(
+                origin,
+                size,
+                [div[0], div[1], div[2]],
+                kind == ElementKind::Tet4,
+            )
+        })
+    }
+
+    fn import_msh(
+        &mut self,
+        rel: &str,
+        espan: Span,
+        sc: &Scope,
+        kind: ElementKind,
+    ) -> R<(Vec<Vec3>, Vec<Vec<usize>>, Imported)> {
+        let rel = rel.to_string();
+        struct E {
+            span: Span,
+        }
+        let e = &E { span: espan };
+        let dir = self.file_dir(sc.file);
+        let path = match &dir {
+            Some(d) => d.join(&rel),
+            None => std::path::PathBuf::from(&rel),
+        };
+        let name_dir = std::path::Path::new(self.sources.name(sc.file))
+            .parent()
+            .map(|p| p.to_path_buf())
+            .unwrap_or_default();
+        let display = crate::load::normalize(&name_dir.join(&rel))
+            .to_string_lossy()
+            .replace('\\', "/");
+        let text = match std::fs::read_to_string(&path) {
+            Ok(t) => t,
+            Err(err) => {
+                return Err(self.report(
+                    Diagnostic::error(
+                        codes::IO,
+                        format!(
+                            "cannot read `{display}`: {}",
+                            if err.kind() == std::io::ErrorKind::NotFound {
+                                "no such file".to_string()
+                            } else {
+                                err.to_string()
+                            }
+                        ),
+                    )
+                    .primary(sc.file, e.span, "")
+                    .help("mesh paths are relative to the .mbd file"),
+                ))
+            }
+        };
+        let fid = self.sources.add(display.clone(), Some(path), text.clone());
+        let data = match msh::parse(&text) {
+            Ok(d) => d,
+            Err(err) => {
+                let f = self.sources.get(fid);
+                let (start, end) = f
+                    .map(|f| {
+                        let line = err.line.clamp(1, f.line_count().max(1));
+                        let start: usize = f
+                            .text
+                            .split_inclusive('\n')
+                            .take(line - 1)
+                            .map(str::len)
+                            .sum();
+                        (start, start + f.line_text(line).len())
+                    })
+                    .unwrap_or((0, 0));
+                return Err(self.report(
+                    Diagnostic::error(
+                        codes::MESH,
+                        format!("cannot read the mesh `{display}`: {}", err.message),
+                    )
+                    .primary(fid, Span::new(start, end), "")
+                    .secondary(sc.file, e.span, "imported here"),
+                ));
+            }
+        };
+        let want: u32 = match kind {
+            ElementKind::Bar2 => 1,
+            ElementKind::Tri3PlaneStress | ElementKind::Tri3PlaneStrain => 2,
+            ElementKind::Quad4PlaneStress | ElementKind::Quad4PlaneStrain => 3,
+            ElementKind::Tet4 => 4,
+            ElementKind::Hex8 => 5,
+        };
+        let mut tags: Vec<usize> = data
+            .elements
+            .iter()
+            .filter(|el| el.etype == want)
+            .flat_map(|el| el.nodes.iter().copied())
+            .collect();
+        if tags.is_empty() {
+            let mut have: HashMap<u32, usize> = HashMap::new();
+            for el in &data.elements {
+                *have.entry(el.etype).or_default() += 1;
+            }
+            let mut have: Vec<_> = have.into_iter().collect();
+            have.sort();
+            let list = have
+                .iter()
+                .map(|(t, n)| format!("{} × {n}", msh::type_name(*t)))
+                .collect::<Vec<_>>()
+                .join(", ");
+            return Err(self.report(
+                Diagnostic::error(
+                    codes::MESH,
+                    format!("`{display}` has no {} elements", element_name(kind)),
+                )
+                .primary(sc.file, e.span, "")
+                .help(if list.is_empty() {
+                    "the file has no elements".to_string()
+                } else {
+                    format!("it has: {list}")
+                }),
+            ));
+        }
+        tags.sort_unstable();
+        tags.dedup();
+        if tags.len() > MAX_MESH_ITEMS {
+            return Err(self.report(
+                Diagnostic::error(codes::LIMIT, "the imported mesh is too large")
+                    .primary(sc.file, e.span, ""),
+            ));
+        }
+        let tag_to_index: HashMap<usize, usize> =
+            tags.iter().enumerate().map(|(i, t)| (*t, i)).collect();
+        let two_d = kind.dim() == 2;
+        let mut nodes = Vec::with_capacity(tags.len());
+        for t in &tags {
+            let mut p = data.nodes.get(t).copied().unwrap_or([0.0; 3]);
+            if two_d {
+                if p[2].abs() > 1e-12 {
+                    return Err(self.report(
+                        Diagnostic::error(
+                            codes::MESH,
+                            format!("node {t} of the 2-D mesh `{display}` has z = {}", num(p[2])),
+                        )
+                        .primary(sc.file, e.span, "")
+                        .help("2-D meshes lie in the plane z = 0"),
+                    ));
+                }
+                p[2] = 0.0;
+            }
+            nodes.push(p);
+        }
+        let mut elements: Vec<Vec<usize>> = Vec::new();
+        for el in data.elements.iter().filter(|el| el.etype == want) {
+            if el.nodes.len() != kind.nodes() {
+                return Err(self.report(
+                    Diagnostic::error(
+                        codes::MESH,
+                        format!(
+                            "an element of `{display}` has {} nodes, expected {}",
+                            el.nodes.len(),
+                            kind.nodes()
+                        ),
+                    )
+                    .primary(sc.file, e.span, ""),
+                ));
+            }
+            elements.push(
+                el.nodes
+                    .iter()
+                    .map(|t| tag_to_index.get(t).copied().unwrap_or(0))
+                    .collect(),
+            );
+        }
+        Ok((
+            nodes,
+            elements,
+            Imported {
+                data,
+                tag_to_index,
+                file: fid,
+            },
+        ))
+    }
+
+    fn set_members(
+        &mut self,
+        value: &'a Expr,
+        sc: &Scope,
+        nodes: &[Vec3],
+        tol: f64,
+        imported: Option<&Imported>,
+    ) -> R<Vec<usize>> {
+        let ExprKind::Call { func, args } = &value.kind else {
+            return Err(self.report(
+                Diagnostic::error(
+                    codes::WRONG_KIND,
+                    "a set is `nodes(PREDICATE)` or `group(\"name\")`",
+                )
+                .primary(sc.file, value.span, ""),
+            ));
+        };
+        match func.name.as_str() {
+            "nodes" => {
+                let a = self.call_args(
+                    func,
+                    args,
+                    &[super::props::pos("predicate")],
+                    sc,
+                    value.span,
+                )?;
+                let Some(pred) = a[0] else {
+                    return Err(Reported);
+                };
+                let mut out = Vec::new();
+                let len = |v: f64| Value::Num(Q::c(v, Dim::LENGTH));
+                for (i, p) in nodes.iter().enumerate() {
+                    let mut psc = sc.clone();
+                    psc.eq_tol = tol;
+                    psc.env = psc
+                        .env
+                        .bind("x", len(p[0]), BindKind::Builtin, sc.file, pred.span)
+                        .bind("y", len(p[1]), BindKind::Builtin, sc.file, pred.span)
+                        .bind("z", len(p[2]), BindKind::Builtin, sc.file, pred.span);
+                    if self.boolean(pred, &psc)? {
+                        out.push(i);
+                    }
+                }
+                Ok(out)
+            }
+            "group" => {
+                let a = self.call_args(func, args, &[super::props::pos("name")], sc, value.span)?;
+                let Some(ne) = a[0] else { return Err(Reported) };
+                let gname = self.string(ne, sc, "a physical group name")?;
+                let Some(imp) = imported else {
+                    return Err(self.report(
+                        Diagnostic::error(
+                            codes::MESH,
+                            "`group(...)` selects a physical group of an imported mesh",
+                        )
+                        .primary(sc.file, value.span, "this mesh is generated")
+                        .help("use `nodes(PREDICATE)` for generated meshes"),
+                    ));
+                };
+                let groups: Vec<&(i32, i32, String)> = imp
+                    .data
+                    .physical_names
+                    .iter()
+                    .filter(|g| g.2 == gname)
+                    .collect();
+                if groups.is_empty() {
+                    let names: Vec<&str> = imp
+                        .data
+                        .physical_names
+                        .iter()
+                        .map(|g| g.2.as_str())
+                        .collect();
+                    let help = crate::suggest::did_you_mean(&gname, names.iter().copied())
+                        .unwrap_or_else(|| {
+                            if names.is_empty() {
+                                "the file defines no physical groups".into()
+                            } else {
+                                format!("physical groups: {}", names.join(", "))
+                            }
+                        });
+                    return Err(self.report(
+                        Diagnostic::error(
+                            codes::MESH,
+                            format!("the mesh has no physical group \"{gname}\""),
+                        )
+                        .primary(sc.file, ne.span, "")
+                        .help(help),
+                    ));
+                }
+                let _ = imp.file;
+                let mut out = Vec::new();
+                for (dim, tag, _) in groups {
+                    for el in &imp.data.elements {
+                        if el.entity_dim == *dim
+                            && imp
+                                .data
+                                .entity_physicals
+                                .get(&(el.entity_dim, el.entity_tag))
+                                .is_some_and(|p| p.contains(tag))
+                        {
+                            out.extend(
+                                el.nodes
+                                    .iter()
+                                    .filter_map(|t| imp.tag_to_index.get(t).copied()),
+                            );
+                        }
+                    }
+                }
+                out.sort_unstable();
+                out.dedup();
+                Ok(out)
+            }
+            other => Err(self.report(
+                Diagnostic::error(
+                    codes::UNKNOWN_NAME,
+                    format!("unknown set selector `{other}`"),
+                )
+                .primary(sc.file, func.span, "")
+                .help("a set is `nodes(PREDICATE)` or `group(\"name\")`"),
+            )),
+        }
+    }
+
+    fn set_ref(&mut self, e: &Expr, sc: &Scope, sets: &[NodeSet]) -> R<usize> {
+        let Some(name) = ident_of(e) else {
+            return Err(self.report(
+                Diagnostic::error(codes::WRONG_KIND, "expected the name of a node set")
+                    .primary(sc.file, e.span, ""),
+            ));
+        };
+        if let Some(i) = sets.iter().position(|s| s.name == name) {
+            return Ok(i);
+        }
+        let help = crate::suggest::did_you_mean(name, sets.iter().map(|s| s.name.as_str()))
+            .unwrap_or_else(|| {
+                if sets.is_empty() {
+                    "declare a set with `set NAME = nodes(PREDICATE)`".into()
+                } else {
+                    format!(
+                        "sets: {}",
+                        sets.iter()
+                            .map(|s| s.name.as_str())
+                            .collect::<Vec<_>>()
+                            .join(", ")
+                    )
+                }
+            });
+        Err(self.report(
+            Diagnostic::error(codes::UNKNOWN_NAME, format!("unknown set `{name}`"))
+                .primary(sc.file, e.span, "not declared in this mesh")
+                .help(help),
+        ))
+    }
+
+    fn condition(
+        &mut self,
+        key: &str,
+        values: &[Expr],
+        sc: &Scope,
+        sets: &[NodeSet],
+        kind: ElementKind,
+    ) -> R<MeshCondition> {
+        if key == "body_force" {
+            let v = self.vec23(&values[0], sc, Dim::FOUNDATION, "a body force (per volume)")?;
+            return Ok(MeshCondition::BodyForce { value: v });
+        }
+        let set = self.set_ref(&values[0], sc, sets)?;
+        let need_faces = matches!(key, "traction" | "foundation");
+        if need_faces && sets[set].faces.is_empty() {
+            return Err(self.report(
+                Diagnostic::error(
+                    codes::MESH,
+                    format!(
+                        "set `{}` contains no boundary {}",
+                        sets[set].name,
+                        if kind.dim() == 2 { "edge" } else { "face" }
+                    ),
+                )
+                .primary(sc.file, values[0].span, "")
+                .help(format!(
+                    "`{key}` acts on the element faces whose nodes all belong to the set"
+                )),
+            ));
+        }
+        match key {
+            "fix" => Ok(MeshCondition::Fixed { set }),
+            "displace" => {
+                let e = &values[1];
+                let ExprKind::Tuple(items) = &e.kind else {
+                    return Err(self.report(
+                        Diagnostic::error(codes::WRONG_KIND, "a displacement is a vector `(ux, uy, uz)`; `free` leaves a component free")
+                            .primary(sc.file, e.span, ""),
+                    ));
+                };
+                if items.len() != 3 && !(items.len() == 2 && kind.dim() == 2) {
+                    return Err(self.report(
+                        Diagnostic::error(
+                            codes::WRONG_KIND,
+                            format!(
+                                "a displacement needs 3 components (2 in 2-D), found {}",
+                                items.len()
+                            ),
+                        )
+                        .primary(sc.file, e.span, ""),
+                    ));
+                }
+                let mut out: [Option<Fn1>; 3] = [None, None, None];
+                if items.len() == 2 {
+                    out[2] = Some(Fn1::Const(0.0));
+                }
+                for (i, it) in items.iter().enumerate() {
+                    if ident_of(it) == Some("free") && sc.env.get("free").is_none() {
+                        out[i] = None;
+                        continue;
+                    }
+                    out[i] = Some(self.fn_num(it, sc, Dim::LENGTH, "a displacement")?);
+                }
+                if kind.dim() == 2 && items.len() == 2 {
+                    out[2] = None;
+                }
+                Ok(MeshCondition::Displacement { set, value: out })
+            }
+            "load" | "traction" => {
+                let (d, what) = if key == "load" {
+                    (Dim::FORCE, "a nodal load")
+                } else {
+                    (Dim::PRESSURE, "a traction")
+                };
+                let v = self.fvec23(&values[1], sc, d, what, kind.dim() == 2)?;
+                Ok(if key == "load" {
+                    MeshCondition::NodalLoad { set, value: v }
+                } else {
+                    MeshCondition::Traction { set, value: v }
+                })
+            }
+            _ => {
+                let m = self.positive(&values[1], sc, Dim::FOUNDATION, "a foundation modulus")?;
+                Ok(MeshCondition::Foundation { set, modulus: m })
+            }
+        }
+    }
+
+    /// A vector of functions of time with 3 components, or 2 in 2-D (z = 0).
+    fn fvec23(&mut self, e: &Expr, sc: &Scope, d: Dim, what: &str, allow2: bool) -> R<[Fn1; 3]> {
+        let v = self.eval(e, sc)?;
+        if let Value::Tuple(items) = &v {
+            if allow2 && items.len() == 2 {
+                let mut items = items.clone();
+                items.push(Value::Num(Q {
+                    f: Fn1::Const(0.0),
+                    dim: d,
+                    poly: true,
+                    var: crate::value::Var::None,
+                }));
+                return self.fvec3_of(Value::Tuple(items), e.span, sc, d, what);
+            }
+        }
+        self.fvec3_of(v, e.span, sc, d, what)
+    }
+}
+
+fn element_name(k: ElementKind) -> &'static str {
+    match k {
+        ElementKind::Bar2 => "bar2",
+        ElementKind::Tri3PlaneStress | ElementKind::Tri3PlaneStrain => "tri3",
+        ElementKind::Quad4PlaneStress | ElementKind::Quad4PlaneStrain => "quad4",
+        ElementKind::Tet4 => "tet4",
+        ElementKind::Hex8 => "hex8",
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn generated_meshes() {
+        let (n, e) = rect_mesh([0.0; 3], [1.0, 0.5], [2, 1], false);
+        assert_eq!(n.len(), 6);
+        assert_eq!(e, vec![vec![0, 1, 4, 3], vec![1, 2, 5, 4]]);
+        let (_, t) = rect_mesh([0.0; 3], [1.0, 0.5], [2, 1], true);
+        assert_eq!(t.len(), 4);
+        let (n, h) = box_mesh([0.0; 3], [1.0, 1.0, 1.0], [2, 2, 2], false);
+        assert_eq!((n.len(), h.len()), (27, 8));
+        let (n, t) = box_mesh([0.0; 3], [1.0, 2.0, 3.0], [2, 1, 1], true);
+        assert_eq!(t.len(), 12);
+        let total: f64 = t.iter().map(|t| tet_volume(&n, t)).sum();
+        assert!((total - 6.0).abs() < 1e-12);
+        assert!(t.iter().all(|t| tet_volume(&n, t) > 0.0));
+        // A conforming split: interior faces pair up, so the boundary has 2 triangles per
+        // outer quad face: 2 * (2*1 + 2*1 + 1*1) * 2 = 20.
+        assert_eq!(boundary_faces(ElementKind::Tet4, &t).len(), 20);
+        let b = boundary_faces(ElementKind::Quad4PlaneStress, &e);
+        assert_eq!(b.len(), 6);
+    }
+}

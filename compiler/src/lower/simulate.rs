@@ -1,0 +1,552 @@
+//! Model-level settings: gravity, `simulate { ... }`, `reference { ... }`.
+
+use mbdc_dsl::ast::{Expr, ItemKind};
+use mbdc_runtime::scene::{
+    BodyReference, Fn1, LintForm, MethodSpec, OutputSpec, Reference, Simulate, StaggeredOptions,
+};
+
+use super::body::num;
+use super::props::{one, Key};
+use super::{EntKind, Lowerer, Reported, Scope, Single, R};
+use crate::diag::{codes, Diagnostic};
+use crate::eval::ident_of;
+use crate::units::Dim;
+use crate::value::{Value, Var};
+
+const SIM_KEYS: &[Key] = &[one("duration"), one("step"), one("method")];
+const OUTPUT_KEYS: &[Key] = &[
+    one("every"),
+    Key {
+        name: "include",
+        min: 1,
+        max: 3,
+        repeat: false,
+    },
+];
+
+/// The options each method accepts.
+pub(crate) fn method_options(name: &str) -> &'static [&'static str] {
+    match name {
+        "staggered" => &["epsilon", "single_stage", "paper_literal", "lint"],
+        "baumgarte" => &["alpha", "beta"],
+        "penalty" => &["epsilon"],
+        "implicit_trapezoid" => &["tolerance", "max_iterations"],
+        "natural_partitioning" => &["epsilon", "tolerance"],
+        "state_time" => &["steps_per_element"],
+        _ => &[],
+    }
+}
+
+impl<'a> Lowerer<'a> {
+    pub(crate) fn lower_gravity(&mut self, s: &Single<'a>) -> R<[f64; 3]> {
+        let ItemKind::Prop { values, .. } = &s.item.kind else {
+            return Err(Reported);
+        };
+        if values.len() != 1 {
+            return Err(self.report(
+                Diagnostic::error(
+                    codes::WRONG_KIND,
+                    format!("`gravity` takes one vector, found {} values", values.len()),
+                )
+                .primary(s.sc.file, s.item.span, "")
+                .help("write `gravity (0, 0, -9.81) m/s^2`"),
+            ));
+        }
+        self.vec3(&values[0], &s.sc, Dim::ACCELERATION, "gravity")
+    }
+
+    pub(crate) fn lower_simulate(&mut self, s: &Single<'a>) -> R<Simulate> {
+        let sc = &s.sc;
+        let ItemKind::Decl {
+            body: Some(block),
+            keyword,
+            ..
+        } = &s.item.kind
+        else {
+            return Err(Reported);
+        };
+        let props = self.props(block, sc, "`simulate`", SIM_KEYS, &["method", "output"]);
+        let duration = match props.value("duration") {
+            Some(e) => self.positive(e, sc, Dim::TIME, "the duration"),
+            None => Err(self.missing(
+                &props,
+                "duration",
+                "`simulate`",
+                sc,
+                keyword.span,
+                "duration 1 s",
+            )),
+        };
+        let step = match props.value("step") {
+            Some(e) => self.positive(e, sc, Dim::TIME, "the time step"),
+            None => Err(self.missing(&props, "step", "`simulate`", sc, keyword.span, "step 1 ms")),
+        };
+        let mut method: R<MethodSpec> = Ok(MethodSpec::default_for("staggered")
+            .unwrap_or(MethodSpec::Staggered(StaggeredOptions::default())));
+        let mut method_seen = props.get("method").map(|p| p.span);
+        if let Some(p) = props.get("method") {
+            method = self.method(&p.values[0], None, sc);
+        }
+        let mut output: R<OutputSpec> = Ok(OutputSpec::default());
+        let mut output_seen: Option<mbdc_dsl::ast::Span> = None;
+        for item in &props.decls {
+            let ItemKind::Decl {
+                keyword,
+                name,
+                value,
+                body,
+            } = &item.kind
+            else {
+                continue;
+            };
+            match keyword.name.as_str() {
+                "method" => {
+                    if let Some(prev) = method_seen {
+                        self.report(
+                            Diagnostic::error(
+                                codes::DUPLICATE_PROPERTY,
+                                "`method` is given twice in `simulate`",
+                            )
+                            .primary(sc.file, item.span, "second")
+                            .secondary(sc.file, prev, "first"),
+                        );
+                        method = Err(Reported);
+                        continue;
+                    }
+                    method_seen = Some(item.span);
+                    method = match (name, value) {
+                        (Some(n), None) if n.indices.is_empty() => {
+                            let e = Expr {
+                                kind: mbdc_dsl::ast::ExprKind::Ident(n.base.clone()),
+                                span: n.span,
+                            };
+                            self.method(&e, body.as_ref(), sc)
+                        }
+                        _ => Err(self.report(
+                            Diagnostic::error(
+                                codes::WRONG_KIND,
+                                "write `method NAME` or `method NAME { OPTIONS }`",
+                            )
+                            .primary(sc.file, item.span, ""),
+                        )),
+                    };
+                }
+                _ => {
+                    if let Some(prev) = output_seen {
+                        self.report(
+                            Diagnostic::error(
+                                codes::DUPLICATE_PROPERTY,
+                                "`output` is given twice in `simulate`",
+                            )
+                            .primary(sc.file, item.span, "second")
+                            .secondary(sc.file, prev, "first"),
+                        );
+                        output = Err(Reported);
+                        continue;
+                    }
+                    output_seen = Some(item.span);
+                    output = match (name, value, body) {
+                        (None, None, Some(b)) => self.output(b, sc),
+                        _ => Err(self.report(
+                            Diagnostic::error(
+                                codes::WRONG_KIND,
+                                "write `output { every N; include bodies, energy, constraints }`",
+                            )
+                            .primary(sc.file, item.span, ""),
+                        )),
+                    };
+                }
+            }
+        }
+        let (duration, step, method, output) = (duration?, step?, method?, output?);
+        if step > duration {
+            self.report(
+                Diagnostic::warning(
+                    codes::INVALID_VALUE,
+                    format!(
+                        "the step ({} s) is longer than the duration ({} s)",
+                        num(step),
+                        num(duration)
+                    ),
+                )
+                .primary(
+                    sc.file,
+                    props.get("step").map(|p| p.span).unwrap_or(s.item.span),
+                    "",
+                )
+                .help("the run will take a single step"),
+            );
+        }
+        if duration / step > 1e12 {
+            self.report(
+                Diagnostic::warning(
+                    codes::INVALID_VALUE,
+                    format!("this run takes {:.3e} steps", duration / step),
+                )
+                .primary(
+                    sc.file,
+                    props.get("step").map(|p| p.span).unwrap_or(s.item.span),
+                    "",
+                ),
+            );
+        }
+        Ok(Simulate {
+            duration,
+            step,
+            method,
+            output,
+        })
+    }
+
+    fn method(
+        &mut self,
+        e: &Expr,
+        block: Option<&'a mbdc_dsl::ast::Block>,
+        sc: &Scope,
+    ) -> R<MethodSpec> {
+        let Some(name) = ident_of(e) else {
+            return Err(self.report(
+                Diagnostic::error(
+                    codes::UNKNOWN_METHOD,
+                    "a method is a name such as `staggered`",
+                )
+                .primary(sc.file, e.span, "")
+                .help(format!("methods: {}", MethodSpec::NAMES.join(", "))),
+            ));
+        };
+        let Some(mut spec) = MethodSpec::default_for(name) else {
+            let help = match crate::suggest::closest(name, MethodSpec::NAMES.iter().copied()) {
+                Some(s) => format!(
+                    "did you mean `{s}`? Methods: {}",
+                    MethodSpec::NAMES.join(", ")
+                ),
+                None => format!("methods: {}", MethodSpec::NAMES.join(", ")),
+            };
+            return Err(self.report(
+                Diagnostic::error(codes::UNKNOWN_METHOD, format!("unknown method `{name}`"))
+                    .primary(sc.file, e.span, "")
+                    .help(help),
+            ));
+        };
+        let Some(block) = block else { return Ok(spec) };
+        let valid = method_options(name);
+        let mut ok = true;
+        let mut seen: Vec<(&str, mbdc_dsl::ast::Span)> = Vec::new();
+        for it in &block.items {
+            let ItemKind::Prop { key, values } = &it.kind else {
+                self.report(
+                    Diagnostic::error(
+                        codes::UNKNOWN_METHOD_OPTION,
+                        "method options are written `NAME VALUE`",
+                    )
+                    .primary(sc.file, it.span, ""),
+                );
+                ok = false;
+                continue;
+            };
+            let k = key.name.as_str();
+            if !valid.contains(&k) {
+                let help = if valid.is_empty() {
+                    format!("`{name}` takes no options")
+                } else {
+                    match crate::suggest::closest(k, valid.iter().copied()) {
+                        Some(s) => {
+                            format!("did you mean `{s}`? `{name}` takes: {}", valid.join(", "))
+                        }
+                        None => format!("`{name}` takes: {}", valid.join(", ")),
+                    }
+                };
+                self.report(
+                    Diagnostic::error(
+                        codes::UNKNOWN_METHOD_OPTION,
+                        format!("unknown option `{k}` of method `{name}`"),
+                    )
+                    .primary(sc.file, key.span, "unknown option")
+                    .help(help),
+                );
+                ok = false;
+                continue;
+            }
+            if let Some((_, prev)) = seen.iter().find(|(n, _)| *n == k) {
+                let prev = *prev;
+                self.report(
+                    Diagnostic::error(
+                        codes::DUPLICATE_PROPERTY,
+                        format!("option `{k}` is given twice"),
+                    )
+                    .primary(sc.file, it.span, "second")
+                    .secondary(sc.file, prev, "first"),
+                );
+                ok = false;
+                continue;
+            }
+            seen.push((k, it.span));
+            if values.len() != 1 {
+                self.report(
+                    Diagnostic::error(codes::WRONG_KIND, format!("option `{k}` takes one value"))
+                        .primary(sc.file, it.span, ""),
+                );
+                ok = false;
+                continue;
+            }
+            let v = &values[0];
+            let r = self.set_option(&mut spec, k, v, sc);
+            ok &= r.is_ok();
+        }
+        if ok {
+            Ok(spec)
+        } else {
+            Err(Reported)
+        }
+    }
+
+    fn set_option(&mut self, spec: &mut MethodSpec, k: &str, v: &Expr, sc: &Scope) -> R<()> {
+        match (spec, k) {
+            (MethodSpec::Staggered(o), "epsilon") => o.epsilon = Some(self.epsilon(v, sc)?),
+            (MethodSpec::Staggered(o), "single_stage") => o.single_stage = self.boolean(v, sc)?,
+            (MethodSpec::Staggered(o), "paper_literal") => o.paper_literal = self.boolean(v, sc)?,
+            (MethodSpec::Staggered(o), "lint") => {
+                o.lint = match ident_of(v) {
+                    Some("exact") => LintForm::Exact,
+                    Some("midpoint") => LintForm::Midpoint,
+                    _ => {
+                        return Err(self.report(
+                            Diagnostic::error(codes::WRONG_KIND, "`lint` is `exact` or `midpoint`")
+                                .primary(sc.file, v.span, ""),
+                        ))
+                    }
+                }
+            }
+            (MethodSpec::Baumgarte { alpha, .. }, "alpha") => {
+                *alpha = self.nonneg(v, sc, Dim::FREQUENCY, "alpha")?
+            }
+            (MethodSpec::Baumgarte { beta, .. }, "beta") => {
+                *beta = self.nonneg(v, sc, Dim::FREQUENCY, "beta")?
+            }
+            (MethodSpec::Penalty { epsilon }, "epsilon") => *epsilon = Some(self.epsilon(v, sc)?),
+            (MethodSpec::NaturalPartitioning { epsilon, .. }, "epsilon") => {
+                *epsilon = Some(self.epsilon(v, sc)?)
+            }
+            (MethodSpec::ImplicitTrapezoid { tolerance, .. }, "tolerance")
+            | (MethodSpec::NaturalPartitioning { tolerance, .. }, "tolerance") => {
+                *tolerance = self.positive(v, sc, Dim::NONE, "a tolerance")?
+            }
+            (MethodSpec::ImplicitTrapezoid { max_iterations, .. }, "max_iterations") => {
+                *max_iterations = self.count(v, sc, "max_iterations")?
+            }
+            (MethodSpec::StateTime { steps_per_element }, "steps_per_element") => {
+                *steps_per_element = self.count(v, sc, "steps_per_element")?
+            }
+            _ => return Err(Reported),
+        }
+        Ok(())
+    }
+
+    /// ε: a positive number, dimensionless or in m/N.
+    fn epsilon(&mut self, e: &Expr, sc: &Scope) -> R<f64> {
+        let q = self.num(e, sc)?;
+        if !(q.fits(Dim::NONE) || q.fits(Dim::COMPLIANCE)) {
+            self.expect_dim(&q, Dim::COMPLIANCE, e.span, sc, "epsilon")?;
+        }
+        let v = self.constant_of(&q, e.span, sc, "epsilon")?;
+        if v <= 0.0 {
+            return Err(self.report(
+                Diagnostic::error(
+                    codes::INVALID_VALUE,
+                    format!("epsilon must be positive, found {}", num(v)),
+                )
+                .primary(sc.file, e.span, ""),
+            ));
+        }
+        Ok(v)
+    }
+
+    /// An integer ≥ 1 that fits in u32.
+    fn count(&mut self, e: &Expr, sc: &Scope, what: &str) -> R<u32> {
+        let n = self.int(e, sc, what)?;
+        if n < 1 || n > u32::MAX as i64 {
+            return Err(self.report(
+                Diagnostic::error(
+                    codes::INVALID_VALUE,
+                    format!("{what} must be a positive integer, found {n}"),
+                )
+                .primary(sc.file, e.span, ""),
+            ));
+        }
+        Ok(n as u32)
+    }
+
+    fn output(&mut self, block: &'a mbdc_dsl::ast::Block, sc: &Scope) -> R<OutputSpec> {
+        let props = self.props(block, sc, "`output`", OUTPUT_KEYS, &[]);
+        let mut out = OutputSpec::default();
+        let mut ok = true;
+        if let Some(e) = props.value("every") {
+            match self.count(e, sc, "`every`") {
+                Ok(n) => out.every = n,
+                Err(_) => ok = false,
+            }
+        }
+        if let Some(p) = props.get("include") {
+            out.bodies = false;
+            out.energy = false;
+            out.constraints = false;
+            for v in p.values {
+                match ident_of(v) {
+                    Some("bodies") => out.bodies = true,
+                    Some("energy") => out.energy = true,
+                    Some("constraints") => out.constraints = true,
+                    _ => {
+                        self.report(
+                            Diagnostic::error(
+                                codes::WRONG_KIND,
+                                "`include` lists `bodies`, `energy` and `constraints`",
+                            )
+                            .primary(sc.file, v.span, ""),
+                        );
+                        ok = false;
+                    }
+                }
+            }
+        }
+        if ok {
+            Ok(out)
+        } else {
+            Err(Reported)
+        }
+    }
+
+    pub(crate) fn lower_reference(&mut self, s: &Single<'a>) -> R<Reference> {
+        let sc = &s.sc;
+        let ItemKind::Decl {
+            body: Some(block), ..
+        } = &s.item.kind
+        else {
+            return Err(Reported);
+        };
+        let props = self.props(block, sc, "`reference`", &[one("table")], &["body"]);
+        let table = match props.value("table") {
+            Some(e) => Some(self.string(e, sc, "a table path")?),
+            None => None,
+        };
+        let mut bodies = Vec::new();
+        let mut ok = true;
+        for item in &props.decls {
+            let ItemKind::Decl {
+                name: Some(name),
+                body: Some(b),
+                value: None,
+                ..
+            } = &item.kind
+            else {
+                self.report(
+                    Diagnostic::error(
+                        codes::WRONG_KIND,
+                        "write `body NAME { position (...); orientation (...) }`",
+                    )
+                    .primary(sc.file, item.span, ""),
+                );
+                ok = false;
+                continue;
+            };
+            let path = {
+                let mut p = name.base.name.clone();
+                let mut bad = false;
+                for ix in &name.indices {
+                    match self.int(ix, sc, "an index") {
+                        Ok(i) => p.push_str(&format!("[{i}]")),
+                        Err(_) => bad = true,
+                    }
+                }
+                if bad {
+                    ok = false;
+                    continue;
+                }
+                p
+            };
+            let nref = crate::value::NameRef {
+                path,
+                prefix: sc.prefix.clone(),
+                file: sc.file,
+                span: name.span,
+            };
+            let Ok(bi) = self.resolve(&nref, EntKind::Body) else {
+                ok = false;
+                continue;
+            };
+            let bp = self.props(
+                b,
+                sc,
+                "a reference body",
+                &[one("position"), one("orientation")],
+                &[],
+            );
+            let position = match bp.value("position") {
+                Some(e) => match self.fvec3(e, sc, Dim::LENGTH, "a reference position") {
+                    Ok(v) => Some(v),
+                    Err(_) => {
+                        ok = false;
+                        None
+                    }
+                },
+                None => None,
+            };
+            let orientation = match bp.value("orientation") {
+                Some(e) => match self.eval(e, sc) {
+                    Ok(Value::Tuple(items)) if items.len() == 4 => {
+                        let mut out: Vec<Fn1> = Vec::new();
+                        for it in items {
+                            match self.scalar_of(it, e.span, sc) {
+                                Ok(q) if q.fits(Dim::NONE) && q.var != Var::X => out.push(q.f),
+                                Ok(_) => {
+                                    self.report(
+                                        Diagnostic::error(
+                                            codes::UNITS,
+                                            "quaternion components are dimensionless",
+                                        )
+                                        .primary(sc.file, e.span, ""),
+                                    );
+                                    ok = false;
+                                }
+                                Err(_) => ok = false,
+                            }
+                        }
+                        <[Fn1; 4]>::try_from(out).ok()
+                    }
+                    Ok(other) => {
+                        self.report(
+                            Diagnostic::error(codes::WRONG_KIND, format!("a reference orientation is a quaternion (w, x, y, z), found {}", other.kind()))
+                                .primary(sc.file, e.span, ""),
+                        );
+                        ok = false;
+                        None
+                    }
+                    Err(_) => {
+                        ok = false;
+                        None
+                    }
+                },
+                None => None,
+            };
+            if position.is_none() && orientation.is_none() && ok {
+                self.report(
+                    Diagnostic::error(
+                        codes::MISSING_PROPERTY,
+                        "a reference body needs `position` or `orientation`",
+                    )
+                    .primary(sc.file, item.span, ""),
+                );
+                ok = false;
+            }
+            bodies.push(BodyReference {
+                body: bi,
+                position,
+                orientation,
+            });
+        }
+        if ok {
+            Ok(Reference { bodies, table })
+        } else {
+            Err(Reported)
+        }
+    }
+}

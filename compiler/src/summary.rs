@@ -1,0 +1,443 @@
+//! A readable summary of a scene: what `mbdc check` prints after the diagnostics.
+
+use std::fmt;
+
+use mbdc_runtime::scene::{BodyRef, ElementKind, ForceKind, MethodSpec, ParamValue, Scene, Vec3};
+use serde::Serialize;
+
+use crate::kinematics;
+
+/// One joint in the summary.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct JointSummary {
+    /// Name.
+    pub name: String,
+    /// Kind keyword (`revolute`, ...).
+    pub kind: &'static str,
+    /// Constraint rows.
+    pub rows: usize,
+    /// Of which nonholonomic.
+    pub nonholonomic: usize,
+    /// First body (or `ground`).
+    pub a: String,
+    /// Second body (or `ground`).
+    pub b: String,
+    /// Largest position-level residual at t = 0 (m or rad).
+    pub position_violation: f64,
+    /// Largest velocity-level residual at t = 0 (m/s or rad/s).
+    pub velocity_violation: f64,
+}
+
+/// Size of a beam or mesh.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct PartSummary {
+    /// Name.
+    pub name: String,
+    /// Element kind (`beam`, `quad4`, ...).
+    pub kind: String,
+    /// Nodes.
+    pub nodes: usize,
+    /// Elements.
+    pub elements: usize,
+    /// Node sets (meshes) or attachments (beams).
+    pub sets: usize,
+}
+
+/// What `mbdc check` reports about a valid scene.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct CheckSummary {
+    /// Model name.
+    pub name: String,
+    /// Body names.
+    pub bodies: Vec<String>,
+    /// Bodies not connected to ground through joints or beams.
+    pub free_bodies: Vec<String>,
+    /// Joints.
+    pub joints: Vec<JointSummary>,
+    /// Holonomic constraint rows (drivers included).
+    pub holonomic_rows: usize,
+    /// Nonholonomic constraint rows.
+    pub nonholonomic_rows: usize,
+    /// Grübler count: 6 · bodies − holonomic rows.
+    pub dof: i64,
+    /// Rank of the constraint Jacobian at t = 0 and its row count (`None`: not computed).
+    pub jacobian_rank: Option<(usize, usize)>,
+    /// Effects the scene uses.
+    pub effects: Vec<&'static str>,
+    /// Forces: name and kind.
+    pub forces: Vec<(String, &'static str)>,
+    /// Contact pair names.
+    pub contacts: Vec<String>,
+    /// Beams.
+    pub beams: Vec<PartSummary>,
+    /// Meshes.
+    pub meshes: Vec<PartSummary>,
+    /// Gravity.
+    pub gravity: Option<Vec3>,
+    /// Method with its options, as text.
+    pub method: String,
+    /// Time step, s.
+    pub step: f64,
+    /// Duration, s.
+    pub duration: f64,
+    /// Number of steps.
+    pub steps: u64,
+    /// Parameters.
+    pub params: Vec<ParamValue>,
+}
+
+/// Names of bodies not connected to ground through joints or beams.
+pub fn free_bodies(scene: &Scene) -> Vec<usize> {
+    let n = scene.bodies.len();
+    // Union-find over bodies + ground (index n).
+    let mut parent: Vec<usize> = (0..=n).collect();
+    fn find(p: &mut [usize], mut i: usize) -> usize {
+        while p[i] != i {
+            p[i] = p[p[i]];
+            i = p[i];
+        }
+        i
+    }
+    let idx = |b: BodyRef| b.index().filter(|i| *i < n).unwrap_or(n);
+    let union = |a: usize, b: usize, p: &mut Vec<usize>| {
+        let (ra, rb) = (find(p, a), find(p, b));
+        if ra != rb {
+            p[ra] = rb;
+        }
+    };
+    for j in &scene.joints {
+        union(idx(j.a.body), idx(j.b.body), &mut parent);
+    }
+    for beam in &scene.beams {
+        let ends: Vec<usize> = beam.attachments.iter().map(|a| idx(a.to.body)).collect();
+        for w in ends.windows(2) {
+            union(w[0], w[1], &mut parent);
+        }
+    }
+    let g = find(&mut parent, n);
+    (0..n).filter(|&i| find(&mut parent, i) != g).collect()
+}
+
+/// The method and its options as text: `staggered (epsilon 1e-6)`.
+pub fn method_text(m: &MethodSpec) -> String {
+    let opts = match m {
+        MethodSpec::Staggered(o) => {
+            let mut v = Vec::new();
+            match o.epsilon {
+                Some(e) => v.push(format!("epsilon {e}")),
+                None => v.push("epsilon default".into()),
+            }
+            if o.single_stage {
+                v.push("single_stage".into());
+            }
+            if o.paper_literal {
+                v.push("paper_literal".into());
+            }
+            v.push(format!("lint {:?}", o.lint).to_lowercase());
+            v
+        }
+        MethodSpec::Baumgarte { alpha, beta } => {
+            vec![format!("alpha {alpha}/s"), format!("beta {beta}/s")]
+        }
+        MethodSpec::Penalty { epsilon } | MethodSpec::NaturalPartitioning { epsilon, .. } => {
+            let mut v = vec![match epsilon {
+                Some(e) => format!("epsilon {e}"),
+                None => "epsilon default".into(),
+            }];
+            if let MethodSpec::NaturalPartitioning { tolerance, .. } = m {
+                v.push(format!("tolerance {tolerance}"));
+            }
+            v
+        }
+        MethodSpec::CoordinatePartitioning => vec![],
+        MethodSpec::ImplicitTrapezoid {
+            tolerance,
+            max_iterations,
+        } => {
+            vec![
+                format!("tolerance {tolerance}"),
+                format!("max_iterations {max_iterations}"),
+            ]
+        }
+        MethodSpec::StateTime { steps_per_element } => {
+            vec![format!("steps_per_element {steps_per_element}")]
+        }
+    };
+    if opts.is_empty() {
+        m.name().to_string()
+    } else {
+        format!("{} ({})", m.name(), opts.join(", "))
+    }
+}
+
+fn element_text(k: ElementKind) -> &'static str {
+    match k {
+        ElementKind::Bar2 => "bar2",
+        ElementKind::Tri3PlaneStress => "tri3 plane stress",
+        ElementKind::Tri3PlaneStrain => "tri3 plane strain",
+        ElementKind::Quad4PlaneStress => "quad4 plane stress",
+        ElementKind::Quad4PlaneStrain => "quad4 plane strain",
+        ElementKind::Tet4 => "tet4",
+        ElementKind::Hex8 => "hex8",
+    }
+}
+
+/// Summarises a scene (computes constraint residuals and the Jacobian rank at t = 0).
+pub fn summary(scene: &Scene) -> CheckSummary {
+    let body_name = |b: BodyRef| match b {
+        BodyRef::Ground => "ground".to_string(),
+        BodyRef::Body(i) => scene
+            .bodies
+            .get(i)
+            .map(|b| b.name.clone())
+            .unwrap_or_else(|| format!("#{i}")),
+    };
+    let joints: Vec<JointSummary> = scene
+        .joints
+        .iter()
+        .map(|j| {
+            let (p, v) = kinematics::initial_violation(scene, j);
+            JointSummary {
+                name: j.name.clone(),
+                kind: j.kind.keyword(),
+                rows: j.kind.rows(),
+                nonholonomic: j.kind.nonholonomic_rows(),
+                a: body_name(j.a.body),
+                b: body_name(j.b.body),
+                position_violation: p,
+                velocity_violation: v,
+            }
+        })
+        .collect();
+    let nonholonomic_rows: usize = scene
+        .joints
+        .iter()
+        .map(|j| j.kind.nonholonomic_rows())
+        .sum();
+    let holonomic_rows = scene.constraint_rows() - nonholonomic_rows;
+    let forces = scene
+        .forces
+        .iter()
+        .map(|f| {
+            let k = match &f.kind {
+                ForceKind::Point { .. } => "point",
+                ForceKind::Torque { .. } => "torque",
+                ForceKind::Spring { stiffness, .. } if *stiffness == 0.0 => "damper",
+                ForceKind::Spring { .. } => "spring",
+                ForceKind::RotationalSpring { stiffness, .. } if *stiffness == 0.0 => {
+                    "rotational_damper"
+                }
+                ForceKind::RotationalSpring { .. } => "rotational_spring",
+            };
+            (f.name.clone(), k)
+        })
+        .collect();
+    let steps = if scene.simulate.step > 0.0 {
+        (scene.simulate.duration / scene.simulate.step)
+            .ceil()
+            .min(u64::MAX as f64) as u64
+    } else {
+        0
+    };
+    CheckSummary {
+        name: scene.name.clone(),
+        bodies: scene.bodies.iter().map(|b| b.name.clone()).collect(),
+        free_bodies: free_bodies(scene)
+            .into_iter()
+            .map(|i| scene.bodies[i].name.clone())
+            .collect(),
+        joints,
+        holonomic_rows,
+        nonholonomic_rows,
+        dof: 6 * scene.bodies.len() as i64 - holonomic_rows as i64,
+        jacobian_rank: kinematics::jacobian_rank(scene),
+        effects: scene.effects().names(),
+        forces,
+        contacts: scene.contacts.iter().map(|c| c.name.clone()).collect(),
+        beams: scene
+            .beams
+            .iter()
+            .map(|b| PartSummary {
+                name: b.name.clone(),
+                kind: "beam".into(),
+                nodes: b.nodes.len(),
+                elements: b.nodes.len().saturating_sub(1),
+                sets: b.attachments.len(),
+            })
+            .collect(),
+        meshes: scene
+            .meshes
+            .iter()
+            .map(|m| PartSummary {
+                name: m.name.clone(),
+                kind: element_text(m.kind).into(),
+                nodes: m.nodes.len(),
+                elements: m.elements.len(),
+                sets: m.node_sets.len(),
+            })
+            .collect(),
+        gravity: scene.gravity,
+        method: method_text(&scene.simulate.method),
+        step: scene.simulate.step,
+        duration: scene.simulate.duration,
+        steps,
+        params: scene.params.clone(),
+    }
+}
+
+fn list(names: &[String], max: usize) -> String {
+    if names.is_empty() {
+        return "none".into();
+    }
+    let mut s = names
+        .iter()
+        .take(max)
+        .cloned()
+        .collect::<Vec<_>>()
+        .join(", ");
+    if names.len() > max {
+        s.push_str(&format!(", … ({} more)", names.len() - max));
+    }
+    s
+}
+
+fn sci(x: f64) -> String {
+    if x == 0.0 {
+        "0".into()
+    } else {
+        format!("{x:.1e}")
+    }
+}
+
+/// Seconds in a readable unit.
+fn secs(x: f64) -> String {
+    if x >= 1.0 || x == 0.0 {
+        format!("{x} s")
+    } else if x >= 1e-3 {
+        format!("{} ms", (x * 1e3 * 1e9).round() / 1e9)
+    } else {
+        format!("{} us", (x * 1e6 * 1e9).round() / 1e9)
+    }
+}
+
+impl fmt::Display for CheckSummary {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        writeln!(f, "model {}", self.name)?;
+        writeln!(
+            f,
+            "  bodies       {}: {}",
+            self.bodies.len(),
+            list(&self.bodies, 12)
+        )?;
+        writeln!(
+            f,
+            "  joints       {} ({} holonomic rows, {} nonholonomic)",
+            self.joints.len(),
+            self.holonomic_rows,
+            self.nonholonomic_rows
+        )?;
+        let w = self
+            .joints
+            .iter()
+            .take(20)
+            .map(|j| j.name.chars().count())
+            .max()
+            .unwrap_or(0);
+        for j in self.joints.iter().take(20) {
+            let viol = if j.position_violation > 1e-9 || j.velocity_violation > 1e-9 {
+                format!(
+                    "  violation at t = 0: {} (position), {} (velocity)",
+                    sci(j.position_violation),
+                    sci(j.velocity_violation)
+                )
+            } else {
+                String::new()
+            };
+            writeln!(
+                f,
+                "    {:<w$}  {:<18} {} – {}, {} row{}{viol}",
+                j.name,
+                j.kind,
+                j.a,
+                j.b,
+                j.rows,
+                if j.rows == 1 { "" } else { "s" },
+                w = w
+            )?;
+        }
+        if self.joints.len() > 20 {
+            writeln!(f, "    … ({} more)", self.joints.len() - 20)?;
+        }
+        write!(
+            f,
+            "  DOF          {} (Grübler: 6·{} − {})",
+            self.dof,
+            self.bodies.len(),
+            self.holonomic_rows
+        )?;
+        match self.jacobian_rank {
+            Some((r, m)) if m > 0 => writeln!(f, "; Jacobian rank {r} of {m} rows at t = 0")?,
+            _ => writeln!(f)?,
+        }
+        writeln!(f, "  free bodies  {}", list(&self.free_bodies, 12))?;
+        let forces: Vec<String> = self
+            .forces
+            .iter()
+            .map(|(n, k)| format!("{n} ({k})"))
+            .collect();
+        writeln!(f, "  forces       {}", list(&forces, 12))?;
+        if !self.contacts.is_empty() {
+            writeln!(f, "  contacts     {}", list(&self.contacts, 12))?;
+        }
+        for b in &self.beams {
+            writeln!(
+                f,
+                "  beam         {}: {} nodes, {} elements, {} attachments",
+                b.name, b.nodes, b.elements, b.sets
+            )?;
+        }
+        for m in &self.meshes {
+            writeln!(
+                f,
+                "  mesh         {}: {}, {} nodes, {} elements, {} sets",
+                m.name, m.kind, m.nodes, m.elements, m.sets
+            )?;
+        }
+        if let Some(g) = self.gravity {
+            writeln!(f, "  gravity      ({}, {}, {}) m/s^2", g[0], g[1], g[2])?;
+        }
+        writeln!(
+            f,
+            "  effects      {}",
+            if self.effects.is_empty() {
+                "none".to_string()
+            } else {
+                self.effects.join(", ")
+            }
+        )?;
+        writeln!(f, "  method       {}", self.method)?;
+        writeln!(
+            f,
+            "  time         duration {}, step {} ({} steps)",
+            secs(self.duration),
+            secs(self.step),
+            self.steps
+        )?;
+        if !self.params.is_empty() {
+            let ps: Vec<String> = self
+                .params
+                .iter()
+                .map(|p| {
+                    format!(
+                        "{} = {}{}",
+                        p.name,
+                        p.value,
+                        if p.overridden { " (set)" } else { "" }
+                    )
+                })
+                .collect();
+            writeln!(f, "  params       {}", list(&ps, 12))?;
+        }
+        Ok(())
+    }
+}
