@@ -31,13 +31,63 @@ pub struct State {
     pub twist: Vec<Twist>,
     /// Multipliers, one per constraint row (0 for inactive rows).
     pub lambda: Vec<f64>,
+    /// Which rows are enforced (locks engage during a run).
+    pub active: Vec<bool>,
 }
 
 impl State {
-    /// Buffers for `bodies` bodies and `rows` rows.
+    /// Buffers for `bodies` bodies and `rows` rows (all rows active).
     pub fn new(bodies: usize, rows: usize) -> State {
-        State { t: 0.0, pose: vec![Pose::default(); bodies], twist: vec![Twist::default(); bodies], lambda: vec![0.0; rows] }
+        State {
+            t: 0.0,
+            pose: vec![Pose::default(); bodies],
+            twist: vec![Twist::default(); bodies],
+            lambda: vec![0.0; rows],
+            active: vec![true; rows],
+        }
     }
+
+    /// The system's initial state at t = 0.
+    pub fn initial<S: System + ?Sized>(sys: &S) -> State {
+        let layout = sys.layout();
+        let mut s = State::new(layout.bodies(), layout.rows);
+        sys.initial_state(&mut s.pose, &mut s.twist);
+        s.active = common::initial_activity(layout);
+        s
+    }
+}
+
+/// Build the integrator for `method` with step `h`, starting from `start`.
+pub fn make<'a, S: System + 'a>(
+    method: &crate::scene::MethodSpec,
+    sys: &S,
+    h: f64,
+    start: &State,
+) -> Result<Box<dyn Integrator<S> + 'a>, StartError> {
+    use crate::scene::MethodSpec as M;
+    Ok(match method {
+        M::Staggered(o) => Box::new(staggered::TwoStage::staggered(sys, h, o, start)),
+        M::Baumgarte { alpha, beta } => Box::new(staggered::TwoStage::baumgarte(sys, h, *alpha, *beta, start)),
+        M::Penalty { epsilon } => Box::new(staggered::TwoStage::penalty(sys, h, *epsilon, start)),
+        M::CoordinatePartitioning => Box::new(partitioning::Partitioning::new(sys, h, start).map_err(StartError::Step)?),
+        M::ImplicitTrapezoid { tolerance, max_iterations } => {
+            Box::new(trapezoid::Trapezoid::new(sys, h, *tolerance, *max_iterations, start))
+        }
+        M::NaturalPartitioning { .. } | M::StateTime { .. } => {
+            return Err(StartError::Unsupported(method.name()))
+        }
+    })
+}
+
+/// Why an integrator could not start.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum StartError {
+    /// The method is not available in this runtime.
+    #[error("method `{0}` is not available yet")]
+    Unsupported(&'static str),
+    /// The initial state could not be processed.
+    #[error(transparent)]
+    Step(#[from] StepError),
 }
 
 /// What went wrong in a step.
@@ -71,7 +121,7 @@ pub struct StepInfo {
 }
 
 /// A fixed-step integrator.
-pub trait Integrator<S: System>: Send {
+pub trait Integrator<S: System> {
     /// The method name.
     fn name(&self) -> &'static str;
     /// Current (synchronized) time.

@@ -88,18 +88,16 @@ fn set(t: &mut Twist, c: usize, v: f64) {
 
 impl Partitioning {
     /// Start from the system's initial state.
-    pub fn new<S: System>(sys: &S, h: f64) -> Result<Partitioning, StepError> {
+    pub fn new<S: System>(sys: &S, h: f64, start: &State) -> Result<Partitioning, StepError> {
         let layout = sys.layout();
         let (nb, m) = (layout.bodies(), layout.rows);
-        let mut pose = vec![Pose::default(); nb];
-        let mut vel = vec![Twist::default(); nb];
-        sys.initial_state(&mut pose, &mut vel);
-        let active = common::initial_activity(layout);
+        let (t0, pose, vel) = (start.t, start.pose.clone(), start.twist.clone());
+        let active = start.active.clone();
         let n = 6 * nb;
         let scale = pose.iter().fold(1.0f64, |a, p| a.max(p.r.norm()));
         let mut s = Partitioning {
             h,
-            t: 0.0,
+            t: t0,
             acc: vec![Twist::default(); nb],
             lambda: vec![0.0; m],
             next_active: active.clone(),
@@ -135,9 +133,9 @@ impl Partitioning {
             vel,
         };
         // consistent initial accelerations
-        sys.constraints(0.0, &s.pose, &s.vel, Need::ALL, &mut s.ce);
+        sys.constraints(t0, &s.pose, &s.vel, Need::ALL, &mut s.ce);
         s.partition(sys)?;
-        s.accelerations(sys, 0.0)?;
+        s.accelerations(sys, t0)?;
         Ok(s)
     }
 
@@ -523,7 +521,7 @@ mod tests {
     #[test]
     fn pendulum_constraint_and_energy() {
         let sys = RodPendulum::new(1.0, 1.0, 0.01, 170f64.to_radians());
-        let mut it = Partitioning::new(&sys, 1e-3).unwrap();
+        let mut it = Partitioning::new(&sys, 1e-3, &State::initial(&sys)).unwrap();
         let mut st = State::new(1, 3);
         let e = |st: &State| {
             let m = &sys.layout.mass[0];

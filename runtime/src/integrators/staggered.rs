@@ -94,6 +94,7 @@ pub struct TwoStage {
     /// Regularization per row (ε holonomic, εh nonholonomic).
     e: Vec<f64>,
     tau: f64,
+    t0: f64,
     half_steps: u64,
     seq: [Seq; 2],
     x: usize,
@@ -133,21 +134,22 @@ const MAX_NEWTON: u32 = 25;
 
 impl TwoStage {
     /// The staggered explicit–implicit method.
-    pub fn staggered<S: System>(sys: &S, h: f64, opts: &StaggeredOptions) -> TwoStage {
+    pub fn staggered<S: System>(sys: &S, h: f64, opts: &StaggeredOptions, start: &State) -> TwoStage {
         let law = Law::Staggered { lint: opts.lint };
-        TwoStage::new(sys, h, law, "staggered", opts.epsilon, opts.single_stage, opts.paper_literal)
+        TwoStage::new(sys, h, law, "staggered", opts.epsilon, opts.single_stage, opts.paper_literal, start)
     }
 
     /// Baumgarte's stabilization on the same coordinate integrator.
-    pub fn baumgarte<S: System>(sys: &S, h: f64, alpha: f64, beta: f64) -> TwoStage {
-        TwoStage::new(sys, h, Law::Baumgarte { alpha, beta }, "baumgarte", None, false, false)
+    pub fn baumgarte<S: System>(sys: &S, h: f64, alpha: f64, beta: f64, start: &State) -> TwoStage {
+        TwoStage::new(sys, h, Law::Baumgarte { alpha, beta }, "baumgarte", None, false, false, start)
     }
 
     /// The penalty method on the same coordinate integrator.
-    pub fn penalty<S: System>(sys: &S, h: f64, epsilon: Option<f64>) -> TwoStage {
-        TwoStage::new(sys, h, Law::Penalty, "penalty", epsilon, false, false)
+    pub fn penalty<S: System>(sys: &S, h: f64, epsilon: Option<f64>, start: &State) -> TwoStage {
+        TwoStage::new(sys, h, Law::Penalty, "penalty", epsilon, false, false, start)
     }
 
+    #[allow(clippy::too_many_arguments)]
     fn new<S: System>(
         sys: &S,
         h: f64,
@@ -156,19 +158,18 @@ impl TwoStage {
         epsilon: Option<f64>,
         single_stage: bool,
         paper_literal: bool,
+        start: &State,
     ) -> TwoStage {
         let layout = sys.layout();
         let (nb, m) = (layout.bodies(), layout.rows);
-        let mut pose = vec![Pose::default(); nb];
-        let mut vel = vec![Twist::default(); nb];
-        sys.initial_state(&mut pose, &mut vel);
-        let active = common::initial_activity(layout);
+        let (t0, pose, vel) = (start.t, start.pose.clone(), start.twist.clone());
+        let active = start.active.clone();
 
-        // Consistent λ⁰ and accelerations at t = 0.
+        // Consistent λ⁰ and accelerations at t0.
         let mut ce = ConstraintEval::new(m);
-        sys.constraints(0.0, &pose, &vel, Need::ALL, &mut ce);
+        sys.constraints(t0, &pose, &vel, Need::ALL, &mut ce);
         let mut applied = vec![Wrench::default(); nb];
-        sys.applied(0.0, &pose, &vel, &mut applied);
+        sys.applied(t0, &pose, &vel, &mut applied);
         let mut q0 = vec![Wrench::default(); nb];
         qbar(layout, &applied, &vel, &mut q0);
         let mut lambda = vec![0.0; m];
@@ -211,13 +212,14 @@ impl TwoStage {
             paper_literal,
             epsilon,
             e,
-            tau: 0.0,
+            tau: t0,
+            t0,
             half_steps: 0,
             trial: seq_b.clone(),
             seq: [seq_b, seq_a],
             x: 0,
             lambda_prev: lambda.clone(),
-            tau_lambda: 0.0,
+            tau_lambda: t0,
             lambda0: lambda.clone(),
             lambda,
             next_active: active.clone(),
@@ -493,13 +495,13 @@ impl<S: System> Integrator<S> for TwoStage {
         if self.single_stage {
             iterations += self.advance(sys, 0, 0)?;
             self.half_steps += 2;
-            self.tau = self.half_steps as f64 * self.h / 2.0;
+            self.tau = self.t0 + self.half_steps as f64 * self.h / 2.0;
         } else {
             for _ in 0..2 {
                 let x = self.x;
                 iterations += self.advance(sys, x, 1 - x)?;
                 self.half_steps += 1;
-                self.tau = self.half_steps as f64 * self.h / 2.0;
+                self.tau = self.t0 + self.half_steps as f64 * self.h / 2.0;
                 self.x = 1 - x;
             }
         }
@@ -597,7 +599,7 @@ mod tests {
         let exact = exact_period(&sys);
         let mut errs = Vec::new();
         for h in [4e-3, 2e-3, 1e-3] {
-            let mut it = TwoStage::staggered(&sys, h, &StaggeredOptions::default());
+            let mut it = TwoStage::staggered(&sys, h, &StaggeredOptions::default(), &State::initial(&sys));
             let (t, phi) = measured_period(&sys, &mut it, 3);
             let err = (t - exact).abs() / exact;
             eprintln!("h={h:e} period={t:.9} exact={exact:.9} rel={err:.3e} max|Φ|={phi:.3e}");
@@ -617,7 +619,7 @@ mod tests {
         let sys = RodPendulum::new(2.0, 1.0, 0.01, 0.0);
         let weight = 2.0 * 9.81;
         let mut st = State::new(1, 3);
-        let mut it = TwoStage::staggered(&sys, 1e-3, &StaggeredOptions::default());
+        let mut it = TwoStage::staggered(&sys, 1e-3, &StaggeredOptions::default(), &State::initial(&sys));
         for _ in 0..1000 {
             it.step(&sys).unwrap();
         }
@@ -643,7 +645,7 @@ mod tests {
         // Documents why the exact form is the default (docs/methods.md).
         let sys = RodPendulum::new(1.0, 1.0, 0.01, 170f64.to_radians());
         let opts = StaggeredOptions { lint: LintForm::Midpoint, ..Default::default() };
-        let mut it = TwoStage::staggered(&sys, 1e-3, &opts);
+        let mut it = TwoStage::staggered(&sys, 1e-3, &opts, &State::initial(&sys));
         let mut st = State::new(1, 3);
         let mut worst: f64 = 0.0;
         for _ in 0..8000 {

@@ -62,17 +62,15 @@ pub struct Trapezoid {
 
 impl Trapezoid {
     /// Start from the system's initial state.
-    pub fn new<S: System>(sys: &S, h: f64, tolerance: f64, max_iterations: u32) -> Trapezoid {
+    pub fn new<S: System>(sys: &S, h: f64, tolerance: f64, max_iterations: u32, start: &State) -> Trapezoid {
         let layout = sys.layout();
         let (nb, m) = (layout.bodies(), layout.rows);
-        let mut pose = vec![Pose::default(); nb];
-        let mut vel = vec![Twist::default(); nb];
-        sys.initial_state(&mut pose, &mut vel);
-        let active = common::initial_activity(layout);
+        let (t0, pose, vel) = (start.t, start.pose.clone(), start.twist.clone());
+        let active = start.active.clone();
         let mut ce = ConstraintEval::new(m);
-        sys.constraints(0.0, &pose, &vel, Need::ALL, &mut ce);
+        sys.constraints(t0, &pose, &vel, Need::ALL, &mut ce);
         let mut applied = vec![Wrench::default(); nb];
-        sys.applied(0.0, &pose, &vel, &mut applied);
+        sys.applied(t0, &pose, &vel, &mut applied);
         let mut q = vec![Wrench::default(); nb];
         qbar(layout, &applied, &vel, &mut q);
         let mut lambda = vec![0.0; m];
@@ -88,7 +86,7 @@ impl Trapezoid {
             h,
             tol: tolerance,
             max_iter: max_iterations.max(1),
-            t: 0.0,
+            t: t0,
             pose1: pose.clone(),
             vel1: vel.clone(),
             fd_pose: pose.clone(),
@@ -365,7 +363,7 @@ mod tests {
     #[test]
     fn pendulum_energy_and_constraint() {
         let sys = RodPendulum::new(1.0, 1.0, 0.01, 170f64.to_radians());
-        let mut it = Trapezoid::new(&sys, 1e-3, 1e-10, 20);
+        let mut it = Trapezoid::new(&sys, 1e-3, 1e-10, 20, &State::initial(&sys));
         let mut st = State::new(1, 3);
         let e = |st: &State| {
             let m = &sys.layout.mass[0];

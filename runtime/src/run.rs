@@ -1,0 +1,532 @@
+//! The run driver: advances a [`System`] with the chosen method, hands synchronized frames
+//! to an observer (the output writers, a progress bar), watches the run, and stops with a
+//! report that says where and why when it cannot continue.
+//!
+//! ## The watchdog
+//! After every step the state is checked for NaN or infinity (the first offending body is
+//! named). At every output frame, and at least every 64 steps, the constraint violation and
+//! the energy are evaluated:
+//! - a holonomic violation above [`Watchdog::max_violation`] (default: 1e-3 of the scene's
+//!   length scale for position rows, 1e-3 rad for angular rows) stops the run, naming the joint;
+//! - in a scene with no energy source (no applied forces, no drivers, no prescribed
+//!   velocities; springs, gravity, dampers and locks are fine), total energy that grows by more
+//!   than [`Watchdog::max_energy_growth`] of the energy in play (the largest kinetic energy plus
+//!   the potential-energy range seen so far) stops it;
+//! - a Newton or PCG iteration that does not converge, or a singular matrix, stops it.
+//!
+//! Each stop carries the simulated time, step, where it started, the quantity and its value,
+//! the likely cause and what to try. With [`OnFailure::HalveStep`] the run restarts from the
+//! last good frame with half the step, and says so through [`Observer::notice`].
+
+use crate::energy;
+use crate::integrators::{self, State, StepError};
+use crate::scene::MethodSpec;
+use crate::system::{ConstraintEval, Need, RowKind, System};
+
+/// What to do when the watchdog stops a run.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum OnFailure {
+    /// Stop and report.
+    Stop,
+    /// Restart from the last good frame with half the step, at most this many times.
+    HalveStep(u32),
+}
+
+/// Watchdog thresholds.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Watchdog {
+    /// Largest holonomic violation tolerated (position rows, m).
+    pub max_violation: f64,
+    /// Largest angular violation tolerated (rad, for rows without length units).
+    pub max_angular_violation: f64,
+    /// Largest relative energy growth tolerated in a scene without energy sources.
+    pub max_energy_growth: f64,
+    /// Whether the scene has energy sources (then energy growth is not checked).
+    pub energy_sources: bool,
+}
+
+impl Watchdog {
+    /// Defaults for a scene of the given length scale (m).
+    pub fn for_scale(length: f64, energy_sources: bool) -> Watchdog {
+        Watchdog {
+            max_violation: 1e-3 * length.max(1e-3),
+            max_angular_violation: 1e-3,
+            max_energy_growth: 0.25,
+            energy_sources,
+        }
+    }
+}
+
+/// Settings of one run.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RunConfig {
+    /// End time, s.
+    pub duration: f64,
+    /// Step, s.
+    pub step: f64,
+    /// Method.
+    pub method: MethodSpec,
+    /// Output a frame every this many steps (the last step is always output).
+    pub every: u32,
+    /// Failure policy.
+    pub on_failure: OnFailure,
+    /// Thresholds.
+    pub watchdog: Watchdog,
+}
+
+/// Everything about one output frame. The slices borrow the driver's buffers.
+pub struct Frame<'a> {
+    /// Step number (steps of the current step size since the start, counting retries).
+    pub step: u64,
+    /// The synchronized state.
+    pub state: &'a State,
+    /// Kinetic energy, J.
+    pub kinetic: f64,
+    /// Potential energy, J.
+    pub potential: f64,
+    /// Linear momentum, world.
+    pub momentum: [f64; 3],
+    /// Angular momentum about the world origin, world.
+    pub angular_momentum: [f64; 3],
+    /// Per joint: largest |Φ| over its holonomic rows (0 if none or inactive).
+    pub violation: &'a [f64],
+    /// Per joint: largest |B u̇ + b| over all its rows (the velocity-level residual).
+    pub velocity_violation: &'a [f64],
+}
+
+/// Receives what a run produces.
+pub trait Observer {
+    /// An output frame.
+    fn frame(&mut self, frame: &Frame<'_>);
+    /// Progress: current time (called at most every few steps).
+    fn progress(&mut self, _t: f64) {}
+    /// A message for the user (retries, warnings).
+    fn notice(&mut self, _message: &str) {}
+}
+
+/// Why a run stopped early.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct Failure {
+    /// Simulated time of the last good state, s.
+    pub time: f64,
+    /// Step number at which it went wrong.
+    pub step: u64,
+    /// The body or joint where it started (or "system").
+    pub location: String,
+    /// The quantity that went wrong.
+    pub quantity: String,
+    /// Its value.
+    pub value: f64,
+    /// The likely cause.
+    pub cause: String,
+    /// What to try.
+    pub hint: String,
+}
+
+impl std::fmt::Display for Failure {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "at t = {:.6} s (step {}), {} of {} = {:.3e}: {}. {}",
+            self.time, self.step, self.quantity, self.location, self.value, self.cause, self.hint
+        )
+    }
+}
+
+/// The outcome of a run.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RunReport {
+    /// Steps taken (all step sizes).
+    pub steps: u64,
+    /// Final time reached.
+    pub t_end: f64,
+    /// Step size at the end (smaller than requested after retries).
+    pub step: f64,
+    /// Whether the run reached `duration`.
+    pub finished: bool,
+    /// The failure, if it stopped early.
+    pub failure: Option<Failure>,
+    /// Retries with a halved step.
+    pub retries: u32,
+    /// Largest holonomic violation seen at output frames, and the joint.
+    pub max_violation: (f64, String),
+    /// Largest |E − E₀| / max(|E₀|, energy in play) seen at output frames.
+    pub max_energy_drift: f64,
+    /// Method statistics (name, value).
+    pub stats: Vec<(String, f64)>,
+}
+
+/// Buffers for evaluating frames.
+struct Probe {
+    ce: ConstraintEval,
+    resid: Vec<f64>,
+    violation: Vec<f64>,
+    velocity_violation: Vec<f64>,
+}
+
+impl Probe {
+    fn new<S: System>(sys: &S) -> Probe {
+        let l = sys.layout();
+        Probe {
+            ce: ConstraintEval::new(l.rows),
+            resid: vec![0.0; l.rows],
+            violation: vec![0.0; l.joints.len()],
+            velocity_violation: vec![0.0; l.joints.len()],
+        }
+    }
+
+    /// Evaluate per-joint violations of `st`; returns (worst holonomic |Φ|, its joint).
+    fn evaluate<S: System>(&mut self, sys: &S, st: &State) {
+        let l = sys.layout();
+        sys.constraints(st.t, &st.pose, &st.twist, Need { phi: true, jac: true, gamma: false }, &mut self.ce);
+        integrators::common::velocity_residual(l, &self.ce, &st.twist, &mut self.resid);
+        for (j, jl) in l.joints.iter().enumerate() {
+            let (mut p, mut v): (f64, f64) = (0.0, 0.0);
+            for r in jl.first_row..jl.first_row + jl.rows {
+                if !st.active[r] {
+                    continue;
+                }
+                if l.row_kind[r] == RowKind::Holonomic {
+                    p = p.max(self.ce.phi[r].abs());
+                }
+                v = v.max(self.resid[r].abs());
+            }
+            self.violation[j] = p;
+            self.velocity_violation[j] = v;
+        }
+    }
+}
+
+/// The scene length scale used for default thresholds: the largest distance of a body from
+/// the origin, at least 1 m.
+pub fn length_scale<S: System>(sys: &S) -> f64 {
+    let st = State::initial(sys);
+    st.pose.iter().fold(1.0f64, |a, p| a.max(p.r.norm()))
+}
+
+/// Run `sys` from its initial state.
+pub fn run<S: System>(sys: &S, cfg: &RunConfig, obs: &mut dyn Observer) -> RunReport {
+    let layout = sys.layout();
+    let mut h = cfg.step;
+    let mut start = State::initial(sys);
+    let mut st = start.clone();
+    let mut probe = Probe::new(sys);
+    let mut report = RunReport {
+        steps: 0,
+        t_end: 0.0,
+        step: h,
+        finished: false,
+        failure: None,
+        retries: 0,
+        max_violation: (0.0, String::new()),
+        max_energy_drift: 0.0,
+        stats: Vec::new(),
+    };
+    let e0 = energy::kinetic_energy(layout, &start.twist) + sys.potential_energy(0.0, &start.pose);
+    let pe0 = sys.potential_energy(0.0, &start.pose);
+    let mut in_play: f64 = energy::kinetic_energy(layout, &start.twist);
+    let (mut pe_lo, mut pe_hi) = (pe0, pe0);
+    let every = cfg.every.max(1) as u64;
+
+    // the initial frame
+    emit(sys, &start, 0, &mut probe, obs, e0, &mut in_play, &mut pe_lo, &mut pe_hi, &mut report);
+    'attempt: loop {
+        let mut integ = match integrators::make(&cfg.method, sys, h, &start) {
+            Ok(i) => i,
+            Err(e) => {
+                report.failure = Some(Failure {
+                    time: start.t,
+                    step: report.steps,
+                    location: "system".into(),
+                    quantity: "start".into(),
+                    value: f64::NAN,
+                    cause: e.to_string(),
+                    hint: "choose another method with --method".into(),
+                });
+                break;
+            }
+        };
+        let n_total = ((cfg.duration - start.t) / h - 1e-9).ceil().max(0.0) as u64;
+        let mut since_check = 0u64;
+        for k in 1..=n_total {
+            let result = integ.step(sys);
+            report.steps += 1;
+            let failure = match result {
+                Err(e) => Some(step_failure(sys, &e, integ.time(), report.steps, h)),
+                Ok(_) => {
+                    integ.state(sys, &mut st);
+                    st.active.copy_from_slice(integ.active());
+                    nonfinite(sys, &st, report.steps, h)
+                }
+            };
+            let failure = match failure {
+                Some(f) => Some(f),
+                None => {
+                    since_check += 1;
+                    let output = k % every == 0 || k == n_total;
+                    if output || since_check >= 64 {
+                        since_check = 0;
+                        probe.evaluate(sys, &st);
+                        let f = check(sys, cfg, &st, &probe, report.steps, h, e0, in_play, pe_lo, pe_hi);
+                        if f.is_none() && output {
+                            emit(sys, &st, report.steps, &mut probe, obs, e0, &mut in_play, &mut pe_lo, &mut pe_hi, &mut report);
+                            start.clone_from(&st);
+                        }
+                        f
+                    } else {
+                        None
+                    }
+                }
+            };
+            if let Some(f) = failure {
+                match cfg.on_failure {
+                    OnFailure::HalveStep(max) if report.retries < max => {
+                        report.retries += 1;
+                        h /= 2.0;
+                        obs.notice(&format!(
+                            "{f}\nretrying from t = {:.6} s with the step halved to {h:.3e} s (retry {} of {max})",
+                            start.t, report.retries
+                        ));
+                        continue 'attempt;
+                    }
+                    _ => {
+                        report.failure = Some(f);
+                        break 'attempt;
+                    }
+                }
+            }
+            if k % 16 == 0 {
+                obs.progress(st.t);
+            }
+        }
+        report.finished = true;
+        report.stats = integ.stats().into_iter().map(|(n, v)| (n.to_string(), v)).collect();
+        break;
+    }
+    report.t_end = start.t;
+    report.step = h;
+    obs.progress(report.t_end);
+    report
+}
+
+#[allow(clippy::too_many_arguments)]
+fn emit<S: System>(
+    sys: &S,
+    st: &State,
+    step: u64,
+    probe: &mut Probe,
+    obs: &mut dyn Observer,
+    e0: f64,
+    in_play: &mut f64,
+    pe_lo: &mut f64,
+    pe_hi: &mut f64,
+    report: &mut RunReport,
+) {
+    let layout = sys.layout();
+    probe.evaluate(sys, st);
+    let kinetic = energy::kinetic_energy(layout, &st.twist);
+    let potential = sys.potential_energy(st.t, &st.pose);
+    *pe_lo = pe_lo.min(potential);
+    *pe_hi = pe_hi.max(potential);
+    *in_play = in_play.max(kinetic);
+    let scale = (e0.abs()).max(*in_play + (*pe_hi - *pe_lo)).max(1e-300);
+    report.max_energy_drift = report.max_energy_drift.max((kinetic + potential - e0).abs() / scale);
+    for (j, v) in probe.violation.iter().enumerate() {
+        if *v > report.max_violation.0 {
+            report.max_violation = (*v, layout.joints[j].name.clone());
+        }
+    }
+    let p = energy::linear_momentum(layout, &st.twist);
+    let l = energy::angular_momentum(layout, &st.pose, &st.twist);
+    obs.frame(&Frame {
+        step,
+        state: st,
+        kinetic,
+        potential,
+        momentum: [p.x, p.y, p.z],
+        angular_momentum: [l.x, l.y, l.z],
+        violation: &probe.violation,
+        velocity_violation: &probe.velocity_violation,
+    });
+}
+
+fn nonfinite<S: System>(sys: &S, st: &State, step: u64, h: f64) -> Option<Failure> {
+    let layout = sys.layout();
+    for (i, (p, v)) in st.pose.iter().zip(&st.twist).enumerate() {
+        let finite = p.r.iter().chain(p.q.coords.iter()).chain(v.v.iter()).chain(v.w.iter()).all(|x| x.is_finite());
+        if !finite {
+            let bad = v.w.norm();
+            return Some(Failure {
+                time: st.t,
+                step,
+                location: format!("body '{}'", layout.body_names[i]),
+                quantity: "state (position, orientation or velocity)".into(),
+                value: if bad.is_finite() { bad } else { f64::NAN },
+                cause: "the state became NaN or infinite: the step is probably above the explicit stability limit (h·ω_max ≤ 2), or a force or constraint is singular here".into(),
+                hint: format!("reduce the step (now {h:.3e} s; try --on-failure=halve-step), or use method implicit_trapezoid for stiff elements"),
+            });
+        }
+    }
+    for (r, l) in st.lambda.iter().enumerate() {
+        if !l.is_finite() {
+            let j = &layout.joints[layout.row_joint[r]];
+            return Some(Failure {
+                time: st.t,
+                step,
+                location: format!("joint '{}'", j.name),
+                quantity: "constraint force λ".into(),
+                value: *l,
+                cause: "the constraint force became NaN or infinite: the constraint matrix is singular here (links that line up, redundant joints)".into(),
+                hint: "use method staggered (robust to singular B M⁻¹ Bᵀ), or check the joints for redundancy with mbdc check".into(),
+            });
+        }
+    }
+    None
+}
+
+#[allow(clippy::too_many_arguments)]
+fn check<S: System>(
+    sys: &S,
+    cfg: &RunConfig,
+    st: &State,
+    probe: &Probe,
+    step: u64,
+    h: f64,
+    e0: f64,
+    in_play: f64,
+    pe_lo: f64,
+    pe_hi: f64,
+) -> Option<Failure> {
+    let layout = sys.layout();
+    let w = &cfg.watchdog;
+    for (j, v) in probe.violation.iter().enumerate() {
+        if *v > w.max_violation {
+            let jl = &layout.joints[j];
+            return Some(Failure {
+                time: st.t,
+                step,
+                location: format!("joint '{}'", jl.name),
+                quantity: "constraint violation |Φ|".into(),
+                value: *v,
+                cause: "the constraint drifted beyond the tolerance: the constraint forces could not hold the joint (singular configuration, inconsistent initial state, or a step too large for the method)".into(),
+                hint: format!("reduce the step (now {h:.3e} s), run with --assemble to start from a consistent state, or use method staggered"),
+            });
+        }
+    }
+    if !w.energy_sources {
+        let kinetic = energy::kinetic_energy(layout, &st.twist);
+        let potential = sys.potential_energy(st.t, &st.pose);
+        let scale = e0.abs().max(in_play.max(kinetic) + (pe_hi.max(potential) - pe_lo.min(potential))).max(1e-300);
+        let growth = (kinetic + potential - e0) / scale;
+        if growth > w.max_energy_growth {
+            // the body with the largest kinetic energy is where it shows
+            let (mut best, mut who) = (0.0, 0usize);
+            for (i, t) in st.twist.iter().enumerate() {
+                let m = &layout.mass[i];
+                let k = 0.5 * m.m * t.v.norm_squared() + 0.5 * t.w.dot(&(m.j * t.w));
+                if k > best {
+                    best = k;
+                    who = i;
+                }
+            }
+            return Some(Failure {
+                time: st.t,
+                step,
+                location: format!("body '{}'", layout.body_names[who]),
+                quantity: "relative energy growth".into(),
+                value: growth,
+                cause: "energy grows although the scene has no energy source: the integration is unstable (step above the stability limit, or stiff springs or fast spin for an explicit method)".into(),
+                hint: format!("reduce the step (now {h:.3e} s) or use method implicit_trapezoid"),
+            });
+        }
+    }
+    None
+}
+
+fn step_failure<S: System>(sys: &S, e: &StepError, t: f64, step: u64, h: f64) -> Failure {
+    let layout = sys.layout();
+    let location = match e {
+        StepError::Singular { row, .. } if *row < layout.rows => {
+            format!("joint '{}'", layout.joints[layout.row_joint[*row]].name)
+        }
+        _ => "system".into(),
+    };
+    let (quantity, value, cause, hint) = match e {
+        StepError::Singular { what, .. } => (
+            format!("{what} pivot"),
+            0.0,
+            format!("{e}"),
+            "the constraints are (nearly) dependent here; method staggered regularizes this, or remove redundant joints".to_string(),
+        ),
+        StepError::NoConvergence { what, residual, .. } => (
+            format!("{what} residual"),
+            *residual,
+            format!("{e}"),
+            format!("reduce the step (now {h:.3e} s) or raise max_iterations"),
+        ),
+    };
+    Failure { time: t, step, location, quantity, value, cause, hint }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::integrators::testsys::RodPendulum;
+    use crate::scene::StaggeredOptions;
+
+    struct Count(usize, Vec<String>);
+    impl Observer for Count {
+        fn frame(&mut self, _f: &Frame<'_>) {
+            self.0 += 1;
+        }
+        fn notice(&mut self, m: &str) {
+            self.1.push(m.to_string());
+        }
+    }
+
+    #[test]
+    fn runs_to_the_end_with_frames() {
+        let sys = RodPendulum::new(1.0, 1.0, 0.01, 1.0);
+        let cfg = RunConfig {
+            duration: 1.0,
+            step: 1e-3,
+            method: MethodSpec::Staggered(StaggeredOptions::default()),
+            every: 10,
+            on_failure: OnFailure::Stop,
+            watchdog: Watchdog::for_scale(1.0, false),
+        };
+        let mut obs = Count(0, vec![]);
+        let r = run(&sys, &cfg, &mut obs);
+        assert!(r.finished, "{:?}", r.failure);
+        assert_eq!(obs.0, 101);
+        assert!((r.t_end - 1.0).abs() < 1e-12);
+        assert!(r.max_violation.0 < 1e-10);
+        assert!(r.max_energy_drift < 1e-4, "{}", r.max_energy_drift);
+    }
+
+    #[test]
+    fn penalty_with_a_tiny_epsilon_blows_up_and_is_reported_then_halving_rescues_it() {
+        // penalty frequency sqrt(K/ε)·h ≫ 2: unstable; the watchdog must name the joint or body
+        let sys = RodPendulum::new(1.0, 1.0, 0.01, 1.0);
+        let mut cfg = RunConfig {
+            duration: 0.5,
+            step: 1e-3,
+            method: MethodSpec::Penalty { epsilon: Some(1e-9) },
+            every: 10,
+            on_failure: OnFailure::Stop,
+            watchdog: Watchdog::for_scale(1.0, false),
+        };
+        let mut obs = Count(0, vec![]);
+        let r = run(&sys, &cfg, &mut obs);
+        let f = r.failure.expect("must fail");
+        assert!(!r.finished);
+        assert!(f.location.contains("pivot") || f.location.contains("rod"), "{f}");
+        assert!(f.hint.contains("step"), "{f}");
+        cfg.on_failure = OnFailure::HalveStep(8);
+        let mut obs = Count(0, vec![]);
+        let r = run(&sys, &cfg, &mut obs);
+        assert!(r.finished, "{:?}", r.failure);
+        assert!(r.retries > 0 && !obs.1.is_empty());
+        assert!(obs.1[0].contains("halved"));
+    }
+}
