@@ -27,6 +27,8 @@ pub(crate) struct Lexed {
     pub comments: Vec<Comment>,
     /// Matched bracket pairs `(open, close)` byte offsets, in order of their closing.
     pub pairs: Vec<(usize, usize)>,
+    /// The deepest bracket nesting seen.
+    pub max_depth: usize,
 }
 
 /// What the last token before a newline says about the line's continuation.
@@ -49,6 +51,7 @@ pub(crate) fn prelex(src: &str, as_expression: bool) -> Result<Lexed, ParseError
     let mut comments = Vec::new();
     let mut pairs = Vec::new();
     let mut stack: Vec<(u8, usize)> = Vec::new();
+    let mut max_depth = 0;
     let mut last = Last::Ends;
     // Significant newlines seen since the last token (turned into whitespace if the next
     // token is `else`).
@@ -156,6 +159,7 @@ pub(crate) fn prelex(src: &str, as_expression: bool) -> Result<Lexed, ParseError
             }
             b'(' | b'[' | b'{' => {
                 stack.push((b, i));
+                max_depth = max_depth.max(stack.len());
                 if stack.len() > MAX_NESTING {
                     return Err(ParseError::new(
                         Span::new(i, i + 1),
@@ -264,6 +268,7 @@ pub(crate) fn prelex(src: &str, as_expression: bool) -> Result<Lexed, ParseError
         masked,
         comments,
         pairs,
+        max_depth,
     })
 }
 

@@ -38,14 +38,52 @@ fn check_size(src: &str) -> Result<(), Vec<ParseError>> {
     Ok(())
 }
 
+/// Up to this bracket depth the parser runs on the caller's stack.
+const INLINE_DEPTH: usize = 24;
+/// Stack reserved per level of bracket nesting when parsing on a dedicated thread (generous
+/// enough for unoptimized builds, where a level costs some tens of kilobytes).
+const STACK_PER_LEVEL: usize = 128 * 1024;
+
+/// Runs `f` on the current thread if the text nests shallowly, else on a scoped thread with
+/// a stack sized for the nesting, so that deep (but accepted) nesting cannot overflow the
+/// caller's stack, whatever its size.
+fn with_stack<T: Send>(depth: usize, f: impl FnOnce() -> T + Send) -> Result<T, ParseError> {
+    if depth <= INLINE_DEPTH {
+        return Ok(f());
+    }
+    let size = (depth + 16) * STACK_PER_LEVEL;
+    std::thread::scope(|scope| {
+        let handle = std::thread::Builder::new()
+            .name("mbdc-dsl-parse".into())
+            .stack_size(size)
+            .spawn_scoped(scope, f)
+            .map_err(|e| {
+                ParseError::new(
+                    Span::new(0, 0),
+                    format!("could not start a thread to parse deeply nested text: {e}"),
+                )
+            })?;
+        handle
+            .join()
+            .map_err(|_| ParseError::new(Span::new(0, 0), "internal error: the parser panicked"))
+    })
+}
+
 /// Parses a whole file.
 pub(crate) fn parse_file(src: &str) -> Result<File, Vec<ParseError>> {
     check_size(src)?;
+    let lexed = prelex(src, false).map_err(|e| vec![e])?;
+    let depth = lexed.max_depth;
+    with_stack(depth, move || parse_lexed(src, lexed)).map_err(|e| vec![e])?
+}
+
+fn parse_lexed(src: &str, lexed: Lexed) -> Result<File, Vec<ParseError>> {
     let Lexed {
         masked,
         comments,
         pairs,
-    } = prelex(src, false).map_err(|e| vec![e])?;
+        ..
+    } = lexed;
     let mut text = masked;
     let mut errors: Vec<ParseError> = Vec::new();
     loop {
@@ -71,7 +109,7 @@ pub(crate) fn parse_file(src: &str) -> Result<File, Vec<ParseError>> {
                 break;
             }
             Err(e) => {
-                let err = explain_pest_error(e, &text);
+                let err = explain_pest_error(e, &text, false);
                 let pos = err.span.start;
                 if errors
                     .iter()
@@ -98,9 +136,13 @@ pub(crate) fn parse_file(src: &str) -> Result<File, Vec<ParseError>> {
 pub(crate) fn parse_expression(src: &str) -> Result<Expr, Vec<ParseError>> {
     check_size(src)?;
     let lexed = prelex(src, true).map_err(|e| vec![e])?;
-    let text = lexed.masked;
+    let depth = lexed.max_depth;
+    with_stack(depth, move || parse_lexed_expr(lexed.masked)).map_err(|e| vec![e])?
+}
+
+fn parse_lexed_expr(text: String) -> Result<Expr, Vec<ParseError>> {
     let mut parsed = MbdParser::parse(Rule::expr_input, &text)
-        .map_err(|e| vec![explain_pest_error(e, &text)])?;
+        .map_err(|e| vec![explain_pest_error(e, &text, true)])?;
     let mut builder = Builder {
         text: &text,
         errors: Vec::new(),
@@ -282,6 +324,23 @@ enum StackOp {
     Infix(BinOp),
 }
 
+/// The children of a pair, without punctuation.
+struct Parts<'i> {
+    span: Span,
+    inner: pest::iterators::Pairs<'i, Rule>,
+}
+
+impl<'i> Parts<'i> {
+    fn try_next(&mut self) -> Option<Pair<'i, Rule>> {
+        self.inner.by_ref().find(|p| !is_punct(p.as_rule()))
+    }
+
+    fn next(&mut self, what: &str) -> Res<Pair<'i, Rule>> {
+        self.try_next()
+            .ok_or_else(|| ParseError::new(self.span, format!("internal error: missing {what}")))
+    }
+}
+
 struct Segment {
     prefixes: Vec<(UnOp, Span)>,
     operand: (Expr, u32),
@@ -335,220 +394,33 @@ impl<'t> Builder<'t> {
         ))
     }
 
+    /// One item. Each kind has its own method so that (in unoptimized builds) the frame
+    /// of this recursive path stays small.
     fn item(&mut self, pair: Pair<'_, Rule>) -> Res<(Item, u32)> {
-        let span = span_of(&pair);
+        // pest's implicit whitespace before an optional repetition that matches nothing
+        // stays in the pair (e.g. after the last value of a property); items end at their
+        // last token.
+        let mut span = span_of(&pair);
+        let bytes = self.text.as_bytes();
+        while span.end > span.start && is_blank(bytes[span.end - 1]) {
+            span.end -= 1;
+        }
         let Some(inner) = pair.into_inner().next() else {
             return Err(ParseError::new(span, "internal error: empty item"));
         };
-        let rule = inner.as_rule();
-        let mut parts = inner.into_inner().filter(|p| !is_punct(p.as_rule()));
-        let mut next = |what: &str| {
-            parts
-                .next()
-                .ok_or_else(|| ParseError::new(span, format!("internal error: missing {what}")))
+        let parts = Parts {
+            span,
+            inner: inner.clone().into_inner(),
         };
-        let (kind, height) = match rule {
-            Rule::import_item => {
-                let _kw = next("keyword")?;
-                let path = self.string(next("path")?)?;
-                (ItemKind::Import { path }, 1)
-            }
-            Rule::param_item | Rule::const_item => {
-                let _kw = next("keyword")?;
-                let name = ident_of(&next("name")?);
-                let (value, h) = self.expr(next("value")?)?;
-                if rule == Rule::param_item {
-                    (ItemKind::Param { name, value }, h)
-                } else {
-                    (ItemKind::Const { name, value }, h)
-                }
-            }
-            Rule::component_item => {
-                let _kw = next("keyword")?;
-                let name = ident_of(&next("name")?);
-                let mut params = Vec::new();
-                let mut height = 0;
-                let mut body = None;
-                for p in parts.by_ref() {
-                    match p.as_rule() {
-                        Rule::cparam => {
-                            let mut it = p.into_inner().filter(|p| !is_punct(p.as_rule()));
-                            let Some(pname) = it.next() else { continue };
-                            let default = match it.next() {
-                                Some(e) => {
-                                    let (e, h) = self.expr(e)?;
-                                    height = height.max(h);
-                                    Some(e)
-                                }
-                                None => None,
-                            };
-                            params.push(ComponentParam {
-                                name: ident_of(&pname),
-                                default,
-                            });
-                        }
-                        Rule::block => {
-                            let (b, h) = self.block(p)?;
-                            height = height.max(h);
-                            body = Some(b);
-                        }
-                        _ => {}
-                    }
-                }
-                let body = body.ok_or_else(|| {
-                    ParseError::new(span, "internal error: component without body")
-                })?;
-                (ItemKind::Component { name, params, body }, height)
-            }
-            Rule::for_item => {
-                let _kw = next("keyword")?;
-                let var = ident_of(&next("variable")?);
-                let _in = next("in")?;
-                let (start, h1) = self.expr(next("start")?)?;
-                let (end, h2) = self.expr(next("end")?)?;
-                let (body, h3) = self.block(next("body")?)?;
-                (
-                    ItemKind::For {
-                        var,
-                        start,
-                        end,
-                        body,
-                    },
-                    h1.max(h2).max(h3),
-                )
-            }
-            Rule::if_item => {
-                let _kw = next("keyword")?;
-                let (cond, h1) = self.expr(next("condition")?)?;
-                let (then, h2) = self.block(next("block")?)?;
-                // The chain of `else if` branches, then an optional final `else` block.
-                let mut branches = Vec::new();
-                let mut otherwise: Option<(Block, u32)> = None;
-                for p in parts.by_ref() {
-                    match p.as_rule() {
-                        Rule::else_if => {
-                            let mut it = p.into_inner().filter(|p| !is_punct(p.as_rule()));
-                            let _else = it.next();
-                            let kw_if = it
-                                .next()
-                                .ok_or_else(|| ParseError::new(span, "internal error: else if"))?;
-                            let start = kw_if.as_span().start();
-                            let cond = it
-                                .next()
-                                .ok_or_else(|| ParseError::new(span, "internal error: else if"))?;
-                            let block = it
-                                .next()
-                                .ok_or_else(|| ParseError::new(span, "internal error: else if"))?;
-                            let (c, hc) = self.expr(cond)?;
-                            let (b, hb) = self.block(block)?;
-                            branches.push((start, c, b, hc.max(hb)));
-                        }
-                        Rule::else_block => {
-                            if let Some(b) = p.into_inner().find(|p| p.as_rule() == Rule::block) {
-                                otherwise = Some(self.block(b)?);
-                            }
-                        }
-                        _ => {}
-                    }
-                }
-                for (start, c, b, h) in branches.into_iter().rev() {
-                    let item_span = Span::new(start, span.end);
-                    let (other, ho) = match otherwise.take() {
-                        Some((blk, ho)) => (Some(blk), ho),
-                        None => (None, 0),
-                    };
-                    let item = Item {
-                        comments: Vec::new(),
-                        trailing_comment: None,
-                        kind: ItemKind::If {
-                            cond: c,
-                            then: b,
-                            otherwise: other,
-                        },
-                        span: item_span,
-                    };
-                    let hb = check_height(h.max(ho) + 1, item_span)?;
-                    otherwise = Some((
-                        Block {
-                            items: vec![item],
-                            trailing_comments: Vec::new(),
-                            span: item_span,
-                        },
-                        hb,
-                    ));
-                }
-                let (other, h3) = match otherwise {
-                    Some((b, h)) => (Some(b), h),
-                    None => (None, 0),
-                };
-                (
-                    ItemKind::If {
-                        cond,
-                        then,
-                        otherwise: other,
-                    },
-                    h1.max(h2).max(h3),
-                )
-            }
-            Rule::decl => {
-                let keyword = ident_of(&next("keyword")?);
-                let mut name = None;
-                let mut value = None;
-                let mut body = None;
-                let mut height = 0;
-                for p in parts.by_ref() {
-                    match p.as_rule() {
-                        Rule::decl_name => {
-                            let (n, h) = self.name(p)?;
-                            height = height.max(h);
-                            name = Some(n);
-                        }
-                        Rule::expr => {
-                            let (e, h) = self.expr(p)?;
-                            height = height.max(h);
-                            value = Some(e);
-                        }
-                        Rule::block => {
-                            let (b, h) = self.block(p)?;
-                            height = height.max(h);
-                            body = Some(b);
-                        }
-                        _ => {}
-                    }
-                }
-                if name.is_none() && body.is_none() {
-                    let k = &keyword.name;
-                    return Err(ParseError::new(
-                        span,
-                        format!("`{k} = ...` has no name: a declaration without a name needs a block"),
-                    )
-                    .with_help(format!(
-                        "for a property write `{k} VALUE` without `=`; for a declaration write `{k} NAME = VALUE`"
-                    )));
-                }
-                (
-                    ItemKind::Decl {
-                        keyword,
-                        name,
-                        value,
-                        body,
-                    },
-                    height,
-                )
-            }
-            Rule::prop => {
-                let key = ident_of(&next("key")?);
-                let mut values = Vec::new();
-                let mut height = 0;
-                for p in parts.by_ref() {
-                    if p.as_rule() == Rule::expr {
-                        let (e, h) = self.expr(p)?;
-                        height = height.max(h);
-                        values.push(e);
-                    }
-                }
-                (ItemKind::Prop { key, values }, height)
-            }
+        let (kind, height) = match inner.as_rule() {
+            Rule::import_item => self.import_item(parts)?,
+            Rule::param_item => self.value_item(parts, true)?,
+            Rule::const_item => self.value_item(parts, false)?,
+            Rule::component_item => self.component_item(parts)?,
+            Rule::for_item => self.for_item(parts)?,
+            Rule::if_item => self.if_item(parts)?,
+            Rule::decl => self.decl_item(parts)?,
+            Rule::prop => self.prop_item(parts)?,
             _ => return Err(ParseError::new(span, "internal error: unknown item")),
         };
         Ok((
@@ -560,6 +432,219 @@ impl<'t> Builder<'t> {
             },
             height,
         ))
+    }
+
+    #[inline(never)]
+    fn import_item(&mut self, mut parts: Parts<'_>) -> Res<(ItemKind, u32)> {
+        let _kw = parts.next("keyword")?;
+        let path = self.string(parts.next("path")?)?;
+        Ok((ItemKind::Import { path }, 1))
+    }
+
+    #[inline(never)]
+    fn value_item(&mut self, mut parts: Parts<'_>, param: bool) -> Res<(ItemKind, u32)> {
+        let _kw = parts.next("keyword")?;
+        let name = ident_of(&parts.next("name")?);
+        let (value, h) = self.expr(parts.next("value")?)?;
+        Ok(if param {
+            (ItemKind::Param { name, value }, h)
+        } else {
+            (ItemKind::Const { name, value }, h)
+        })
+    }
+
+    #[inline(never)]
+    fn component_item(&mut self, mut parts: Parts<'_>) -> Res<(ItemKind, u32)> {
+        let span = parts.span;
+        let _kw = parts.next("keyword")?;
+        let name = ident_of(&parts.next("name")?);
+        let mut params = Vec::new();
+        let mut height = 0;
+        let mut body = None;
+        while let Some(p) = parts.try_next() {
+            match p.as_rule() {
+                Rule::cparam => {
+                    let mut it = p.into_inner().filter(|p| !is_punct(p.as_rule()));
+                    let Some(pname) = it.next() else { continue };
+                    let default = match it.next() {
+                        Some(e) => {
+                            let (e, h) = self.expr(e)?;
+                            height = height.max(h);
+                            Some(e)
+                        }
+                        None => None,
+                    };
+                    params.push(ComponentParam {
+                        name: ident_of(&pname),
+                        default,
+                    });
+                }
+                Rule::block => {
+                    let (b, h) = self.block(p)?;
+                    height = height.max(h);
+                    body = Some(b);
+                }
+                _ => {}
+            }
+        }
+        let body =
+            body.ok_or_else(|| ParseError::new(span, "internal error: component without body"))?;
+        Ok((ItemKind::Component { name, params, body }, height))
+    }
+
+    #[inline(never)]
+    fn for_item(&mut self, mut parts: Parts<'_>) -> Res<(ItemKind, u32)> {
+        let _kw = parts.next("keyword")?;
+        let var = ident_of(&parts.next("variable")?);
+        let _in = parts.next("in")?;
+        let (start, h1) = self.expr(parts.next("start")?)?;
+        let (end, h2) = self.expr(parts.next("end")?)?;
+        let (body, h3) = self.block(parts.next("body")?)?;
+        Ok((
+            ItemKind::For {
+                var,
+                start,
+                end,
+                body,
+            },
+            h1.max(h2).max(h3),
+        ))
+    }
+
+    #[inline(never)]
+    fn if_item(&mut self, mut parts: Parts<'_>) -> Res<(ItemKind, u32)> {
+        let span = parts.span;
+        let _kw = parts.next("keyword")?;
+        let (cond, h1) = self.expr(parts.next("condition")?)?;
+        let (then, h2) = self.block(parts.next("block")?)?;
+        // The chain of `else if` branches, then an optional final `else` block; nested
+        // from the end without recursion.
+        let mut branches = Vec::new();
+        let mut otherwise: Option<(Block, u32)> = None;
+        while let Some(p) = parts.try_next() {
+            match p.as_rule() {
+                Rule::else_if => {
+                    let mut it = Parts {
+                        span,
+                        inner: p.into_inner(),
+                    };
+                    let _else = it.next("else")?;
+                    let kw_if = it.next("if")?;
+                    let start = kw_if.as_span().start();
+                    let (c, hc) = self.expr(it.next("condition")?)?;
+                    let (b, hb) = self.block(it.next("block")?)?;
+                    branches.push((start, c, b, hc.max(hb)));
+                }
+                Rule::else_block => {
+                    if let Some(b) = p.into_inner().find(|p| p.as_rule() == Rule::block) {
+                        otherwise = Some(self.block(b)?);
+                    }
+                }
+                _ => {}
+            }
+        }
+        for (start, c, b, h) in branches.into_iter().rev() {
+            let item_span = Span::new(start, span.end);
+            let (other, ho) = match otherwise.take() {
+                Some((blk, ho)) => (Some(blk), ho),
+                None => (None, 0),
+            };
+            let item = Item {
+                comments: Vec::new(),
+                trailing_comment: None,
+                kind: ItemKind::If {
+                    cond: c,
+                    then: b,
+                    otherwise: other,
+                },
+                span: item_span,
+            };
+            let hb = check_height(h.max(ho) + 1, item_span)?;
+            otherwise = Some((
+                Block {
+                    items: vec![item],
+                    trailing_comments: Vec::new(),
+                    span: item_span,
+                },
+                hb,
+            ));
+        }
+        let (other, h3) = match otherwise {
+            Some((b, h)) => (Some(b), h),
+            None => (None, 0),
+        };
+        Ok((
+            ItemKind::If {
+                cond,
+                then,
+                otherwise: other,
+            },
+            h1.max(h2).max(h3),
+        ))
+    }
+
+    #[inline(never)]
+    fn decl_item(&mut self, mut parts: Parts<'_>) -> Res<(ItemKind, u32)> {
+        let span = parts.span;
+        let keyword = ident_of(&parts.next("keyword")?);
+        let mut name = None;
+        let mut value = None;
+        let mut body = None;
+        let mut height = 0;
+        while let Some(p) = parts.try_next() {
+            match p.as_rule() {
+                Rule::decl_name => {
+                    let (n, h) = self.name(p)?;
+                    height = height.max(h);
+                    name = Some(n);
+                }
+                Rule::expr => {
+                    let (e, h) = self.expr(p)?;
+                    height = height.max(h);
+                    value = Some(e);
+                }
+                Rule::block => {
+                    let (b, h) = self.block(p)?;
+                    height = height.max(h);
+                    body = Some(b);
+                }
+                _ => {}
+            }
+        }
+        if name.is_none() && body.is_none() {
+            let k = &keyword.name;
+            return Err(ParseError::new(
+                span,
+                format!("`{k} = ...` has no name: a declaration without a name needs a block"),
+            )
+            .with_help(format!(
+                "for a property write `{k} VALUE` without `=`; for a declaration write `{k} NAME = VALUE`"
+            )));
+        }
+        Ok((
+            ItemKind::Decl {
+                keyword,
+                name,
+                value,
+                body,
+            },
+            height,
+        ))
+    }
+
+    #[inline(never)]
+    fn prop_item(&mut self, mut parts: Parts<'_>) -> Res<(ItemKind, u32)> {
+        let key = ident_of(&parts.next("key")?);
+        let mut values = Vec::new();
+        let mut height = 0;
+        while let Some(p) = parts.try_next() {
+            if p.as_rule() == Rule::expr {
+                let (e, h) = self.expr(p)?;
+                height = height.max(h);
+                values.push(e);
+            }
+        }
+        Ok((ItemKind::Prop { key, values }, height))
     }
 
     fn name(&mut self, pair: Pair<'_, Rule>) -> Res<(Name, u32)> {
@@ -1191,19 +1276,19 @@ enum Want {
     Expr,
     Name,
     Item,
-    End,
+    Str,
     Eq,
     LBrace,
     LParen,
+    Comma,
+    Colon,
     RParen,
     RBracket,
     RBrace,
-    Comma,
-    Colon,
     In,
     DotDot,
-    Str,
     Operator,
+    End,
 }
 
 impl Want {
@@ -1223,7 +1308,7 @@ impl Want {
             Want::Colon => "`:`",
             Want::In => "`in`",
             Want::DotDot => "`..`",
-            Want::Str => "a string in quotes, e.g. `\"part.mbd\"`",
+            Want::Str => "a string in quotes",
             Want::Operator => "an operator",
         }
     }
@@ -1241,7 +1326,8 @@ fn want_of(rule: Rule) -> Option<Want> {
         | Rule::kw_false
         | Rule::call
         | Rule::group
-        | Rule::list => Want::Expr,
+        | Rule::list
+        | Rule::arg => Want::Expr,
         Rule::string => Want::Str,
         Rule::ident | Rule::decl_name | Rule::cparam => Want::Name,
         Rule::item
@@ -1342,10 +1428,8 @@ fn found_at(text: &str, pos: usize) -> (String, Span, TokKind) {
                     TokKind::Other,
                 );
             }
-            let desc = if c.is_alphanumeric() || c.is_ascii_graphic() {
+            let desc = if !c.is_control() && !c.is_whitespace() {
                 format!("`{c}`")
-            } else if c.is_alphabetic() || !c.is_control() && !c.is_whitespace() {
-                format!("`{c}` (only ASCII letters, digits and `_` may form names)")
             } else {
                 format!("the character U+{:04X}", c as u32)
             };
@@ -1458,7 +1542,7 @@ fn item_keyword(text: &str, pos: usize) -> Option<&str> {
     (end > i).then(|| &text[i..end])
 }
 
-fn explain_pest_error(err: pest::error::Error<Rule>, text: &str) -> ParseError {
+fn explain_pest_error(err: pest::error::Error<Rule>, text: &str, expr_mode: bool) -> ParseError {
     let pos = match err.location {
         InputLocation::Pos(p) => p,
         InputLocation::Span((s, _)) => s,
@@ -1532,6 +1616,8 @@ fn explain_pest_error(err: pest::error::Error<Rule>, text: &str) -> ParseError {
         && c.is_some_and(|c| c != b'"' && !b"(){}[],;:.=<>!+-*/%^@".contains(&c));
     let mut message = if stray {
         format!("unexpected character {found}")
+    } else if expr_mode && structural.contains(&Want::End) {
+        format!("expected the end of the input{after}, found {found}")
     } else if structural.contains(&Want::End) {
         let mut others: Vec<Want> = structural
             .iter()
@@ -1549,6 +1635,32 @@ fn explain_pest_error(err: pest::error::Error<Rule>, text: &str) -> ParseError {
     };
     let mut help: Option<String> = None;
 
+    // At the start of a line where an item may begin.
+    let line_start = bytes[..found_span.start.min(bytes.len())]
+        .iter()
+        .rev()
+        .find(|b| !matches!(b, b' ' | b'\t' | b'\r' | 0x0C))
+        .is_none_or(|b| matches!(b, b'\n' | b';' | b'{'));
+    if line_start && structural.contains(&Want::Item) && found_kind != TokKind::Word && !stray {
+        let c = c.unwrap_or(b' ');
+        let mut e = ParseError::new(
+            found_span,
+            format!("expected a declaration or a property, found {found}"),
+        );
+        if b"+-*/%^@=<>,".contains(&c) {
+            e = e.with_help(
+                "a line that starts with an operator does not continue the previous one: end the previous line with the operator instead",
+            );
+        } else if c == b'{' {
+            e = e.with_help(
+                "put the `{` on the same line as the declaration it belongs to, e.g. `body rod {`",
+            );
+        } else {
+            e = e.with_help("an item starts with a name, e.g. `mass 1 kg` or `body rod { ... }`");
+        }
+        return e;
+    }
+
     let space_before = found_span.start > 0 && matches!(bytes[found_span.start - 1], b' ' | b'\t');
     let prev_kind = prev.as_ref().map(|p| p.2);
     let prev_text = prev.as_ref().map(|p| p.0.as_str()).unwrap_or("");
@@ -1558,7 +1670,7 @@ fn explain_pest_error(err: pest::error::Error<Rule>, text: &str) -> ParseError {
     } else if structural.contains(&Want::End) || structural.is_empty() {
         // The item could have ended here: something extra follows on the same line.
         if c == Some(b'(') && !space_before && matches!(prev_kind, Some(TokKind::Word)) {
-            message = format!("only a plain name can be called{after}");
+            message = "only a plain name can be called".to_string();
             help = Some("call functions by their name, e.g. `norm(v)`; `a.b(...)` and `a[i](...)` are not calls".into());
         } else if matches!(c, Some(b'(' | b'['))
             && space_before
@@ -1609,6 +1721,8 @@ fn explain_pest_error(err: pest::error::Error<Rule>, text: &str) -> ParseError {
                 "a `{k}` needs a value: `{k} NAME = VALUE`, e.g. `{k} L = 1 m`"
             ));
         }
+    } else if structural == [Want::Str] {
+        help = Some("write the path in quotes, e.g. `import \"parts/link.mbd\"`".into());
     } else if structural.contains(&Want::In) {
         help = Some("a loop is written `for i in 0..N { ... }`".into());
     } else if structural.contains(&Want::DotDot) {

@@ -1,0 +1,40 @@
+//! Every ```mbd block of docs/language.md parses, has tight spans, and formats
+//! idempotently to text that parses back to the same tree.
+
+mod common;
+
+#[test]
+fn every_mbd_block_of_the_language_reference_parses_and_formats() {
+    let examples = common::doc_examples();
+    assert!(
+        examples.len() >= 12,
+        "expected the reference to hold at least 12 mbd blocks, found {}",
+        examples.len()
+    );
+    for (line, src) in &examples {
+        let file = match mbdc_dsl::parse(src) {
+            Ok(f) => f,
+            Err(errors) => {
+                let rendered: Vec<String> = errors.iter().map(|e| e.render(src)).collect();
+                panic!(
+                    "docs/language.md block at line {line} does not parse:\n{}",
+                    rendered.join("\n")
+                );
+            }
+        };
+        assert!(!file.items.is_empty(), "block at line {line} is empty");
+        common::check_spans(src, &file);
+        common::check_format_roundtrip(src, &file);
+    }
+}
+
+#[test]
+fn formatted_reference_examples_snapshot() {
+    let mut all = String::new();
+    for (line, src) in common::doc_examples() {
+        let file = common::parse_ok(&src);
+        all.push_str(&format!("// ---- docs/language.md:{line}\n"));
+        all.push_str(&mbdc_dsl::format(&file));
+    }
+    insta::assert_snapshot!(all);
+}
