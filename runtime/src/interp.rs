@@ -11,6 +11,10 @@
 //!   gravity vector), point forces and torques on bodies, springs with non-zero stiffness
 //!   or damping, contacts. Nothing else is evaluated in [`System::applied`].
 //!
+//! [`System::has_velocity_forces`] is true only with dampers, contact damping or friction;
+//! [`System::has_state_forces`] is false when the only forces are gravity, world-frame
+//! forces at mass centres and body-frame torques.
+//!
 //! Every [`System`] method then loops over these prebuilt lists without allocating,
 //! calling the same kernels ([`crate::joints`], [`crate::forces`], [`crate::contact`]) that
 //! generated code calls.
@@ -163,6 +167,7 @@ pub struct Interp {
     terms: Vec<Term>,
     locks: Vec<Lock>,
     velocity_forces: bool,
+    state_forces: bool,
     ground_pose: Pose,
     ground_twist: Twist,
 }
@@ -739,6 +744,15 @@ impl Interp {
             row_joint,
             row_kind,
         };
+        // `applied` depends on the state unless every term is a world-frame force at the
+        // mass centre or a body-frame torque (gravity never does).
+        let state_forces = terms.iter().any(|t| match t {
+            Term::Point { rho, frame, .. } => {
+                *frame == ForceFrame::Body || rho.iter().any(|x| *x != 0.0)
+            }
+            Term::Torque { frame, .. } => *frame == ForceFrame::World,
+            _ => true,
+        });
         Ok(Interp {
             name: scene.name.clone(),
             layout,
@@ -749,6 +763,7 @@ impl Interp {
             terms,
             locks,
             velocity_forces,
+            state_forces,
             ground_pose,
             ground_twist,
         })
@@ -980,6 +995,10 @@ impl System for Interp {
 
     fn has_velocity_forces(&self) -> bool {
         self.velocity_forces
+    }
+
+    fn has_state_forces(&self) -> bool {
+        self.state_forces
     }
 }
 

@@ -154,6 +154,10 @@ fn pendulum_on_revolute_joint() {
     assert_eq!(lay.row_joint, vec![0; 5]);
     assert_eq!(lay.row_kind, vec![RowKind::Holonomic; 5]);
     assert!(!sys.has_velocity_forces());
+    assert!(
+        !sys.has_state_forces(),
+        "gravity alone does not depend on the state"
+    );
     assert_eq!(sys.force_terms(), 0);
 
     let (pose, twist) = state(&sys);
@@ -434,6 +438,14 @@ fn forces_and_contacts_in_applied() {
     let sys = Interp::new(&s).unwrap();
     assert_eq!(sys.force_terms(), 2, "the idle spring builds no term");
     assert!(!sys.has_velocity_forces());
+    assert!(sys.has_state_forces());
+    // a world force at the mass centre alone is state-independent
+    let mut s2 = s.clone();
+    s2.contacts.clear();
+    if let ForceKind::Point { at, .. } = &mut s2.forces[0].kind {
+        at.point = [0.0; 3];
+    }
+    assert!(!Interp::new(&s2).unwrap().has_state_forces());
     let (pose, twist) = state(&sys);
     let mut w = vec![Wrench::default(); 1];
     sys.applied(1.5, &pose, &twist, &mut w);
