@@ -19,6 +19,7 @@ pub mod system;
 pub mod math;
 pub mod topology;
 pub mod linalg;
+pub mod output;
 pub mod fn1;
 pub mod joints;
 pub mod forces;

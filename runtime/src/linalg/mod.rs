@@ -97,8 +97,11 @@ pub use dense::{
     ColumnSelection, ColumnSelector, DenseCholesky, DenseLu, LuStats, PivotedCholesky,
 };
 pub use kmatrix::{jac_mul, jac_t_mul, mass_inv_mul, ConstraintMatrix, KPattern};
-pub use solver::{Backend, BackendKind, KSolver, KSolverOptions};
-pub use sparse::SparseCholesky;
+pub use solver::{
+    Backend, BackendKind, KSolver, KSolverOptions, SPARSE_MAX_DENSITY, SPARSE_MIN_ROWS,
+    SPARSE_MIN_ROWS_SEMIDEFINITE,
+};
+pub use sparse::{SparseCholesky, SparseKernel};
 
 /// Default relative pivot tolerance of the semidefinite factorizations: a row whose scaled
 /// pivot `sin² θ` is at most this is dependent (θ ≲ 1e-6 rad). Rounding puts exactly

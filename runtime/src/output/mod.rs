@@ -1,0 +1,794 @@
+//! Streaming output: CSV time series and `summary.json`, written by a background thread
+//! while the simulation runs, so that a run that is stopped or fails keeps every frame
+//! written so far.
+//!
+//! # Flow
+//!
+//! ```text
+//! simulation thread                         writer thread
+//! frame = writer.frame()   ◄── pool ───     (recycled Frame buffers)
+//! fill frame (no allocation)
+//! writer.submit(frame)     ─── queue ──►    format rows into per-file Strings,
+//!                                           return the Frame to the pool;
+//!                                           when the queue is empty: write the
+//!                                           Strings to the files
+//! writer.finish(&summary)  ─── close ──►    flush, exit; summary.json written
+//! ```
+//!
+//! - **Bounded memory.** All [`Frame`]s are allocated by [`OutputWriter::create`]: a pool
+//!   of `clamp(64 MiB / frame size, 2, 32)` buffers. [`OutputWriter::frame`] blocks while
+//!   every buffer is queued, so a slow disk slows the simulation instead of growing memory.
+//! - **No allocation on the simulation thread.** `frame` and `submit` move buffers through
+//!   bounded (preallocated) channels; all formatting happens on the writer thread, into
+//!   `String`s reused across batches.
+//! - **Lag and integrity.** The writer writes whenever its queue runs empty (and whenever
+//!   a file's batch exceeds 1 MiB), so data on disk lags the simulation by at most one
+//!   batch. Each write is a whole number of lines, issued with one `write_all` on the
+//!   unbuffered file, so a process killed between writes leaves only complete lines. If a
+//!   write fails (disk full, I/O error), the file is truncated back to its last complete
+//!   batch, writing stops for every file (so the files stay mutually consistent), and the
+//!   error — with the path — is returned by the next [`OutputWriter::submit`] and by
+//!   [`OutputWriter::finish`].
+//! - **Numbers** are written in the shortest decimal form that parses back to the same
+//!   `f64` (ryu), so a CSV round trip is exact; non-finite values are `NaN`, `inf`, `-inf`.
+//! - **summary.json** is written at creation with `finished: false` (so even a killed run
+//!   leaves one) and rewritten atomically (temporary file + rename) by `finish`, also on
+//!   failure.
+//!
+//! # Files
+//!
+//! | file | columns |
+//! |---|---|
+//! | `bodies.csv` | `t`, then per body `<body>.x .y .z .qw .qx .qy .qz .vx .vy .vz .wx .wy .wz` (position and velocity world, quaternion body → world, angular velocity body components) |
+//! | `energy.csv` | `t, kinetic, potential, total, drift, px, py, pz, Lx, Ly, Lz` (momenta world, angular about the world origin) |
+//! | `constraints.csv` | `t`, then per joint `<joint>.violation`, `<joint>.velocity_violation` (joints with nonholonomic rows only), `<joint>.lambda0 …` (one per row) |
+//!
+//! Only the files the [`OutputSpec`] asks for are created.
+//!
+//! `drift` is `(E − E₀) / E_ref` with `E₀` the total energy of the first frame and
+//! `E_ref = max(|E₀|, K_max + (V_max − V_min), 10⁻³⁰⁰)` over the frames written so far:
+//! the energy in play, as in the run driver's report. Unlike `|E₀|` alone it does not
+//! divide by zero when the potential datum makes `E₀ = 0`, and unlike `K + |V|` it does
+//! not depend on where the potential's zero is once anything has moved.
+
+mod csv;
+mod json;
+
+use std::collections::BTreeMap;
+use std::fs::File;
+use std::io::Write as _;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::mpsc::{sync_channel, Receiver, SyncSender};
+use std::sync::{Arc, Mutex};
+use std::thread::JoinHandle;
+
+use serde::{Deserialize, Serialize};
+
+use crate::scene::OutputSpec;
+use crate::system::{Layout, Pose, RowKind, Twist};
+
+pub use csv::{bodies_header, constraints_header, energy_header, BODY_COLUMNS, ENERGY_COLUMNS};
+
+/// One output frame: the state and the derived quantities at one time. Plain data,
+/// allocated by [`OutputWriter::create`] and recycled.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Frame {
+    /// Step number.
+    pub step: u64,
+    /// Time, s.
+    pub t: f64,
+    /// Body poses.
+    pub poses: Vec<Pose>,
+    /// Body twists.
+    pub twists: Vec<Twist>,
+    /// Kinetic energy, J.
+    pub kinetic: f64,
+    /// Potential energy, J.
+    pub potential: f64,
+    /// Linear momentum, world components.
+    pub momentum: [f64; 3],
+    /// Angular momentum about the world origin, world components.
+    pub angular_momentum: [f64; 3],
+    /// Per joint: the largest `|Φ|` over its (active) holonomic rows, 0 if none.
+    pub violation: Vec<f64>,
+    /// Per joint: the largest velocity residual `|B u̇ + b|` over its (active)
+    /// nonholonomic rows, 0 if none (written only for joints that have such rows).
+    pub velocity_violation: Vec<f64>,
+    /// Multipliers λ, one per constraint row.
+    pub lambda: Vec<f64>,
+}
+
+impl Frame {
+    /// A zeroed frame sized for a layout.
+    pub fn new(layout: &Layout) -> Frame {
+        Frame {
+            step: 0,
+            t: 0.0,
+            poses: vec![Pose::default(); layout.bodies()],
+            twists: vec![Twist::default(); layout.bodies()],
+            kinetic: 0.0,
+            potential: 0.0,
+            momentum: [0.0; 3],
+            angular_momentum: [0.0; 3],
+            violation: vec![0.0; layout.joints.len()],
+            velocity_violation: vec![0.0; layout.joints.len()],
+            lambda: vec![0.0; layout.rows],
+        }
+    }
+
+    /// Fill the per-joint violations and the multipliers from per-row data: `phi` the
+    /// constraint values, `velocity_residual` the velocity-level residuals `B u̇ + b`,
+    /// `lambda` the multipliers, `active` the enforced rows (`None`: all). Inactive rows
+    /// count neither as violation nor as multiplier. Allocation-free.
+    ///
+    /// # Panics
+    /// If a slice does not have one entry per row.
+    pub fn set_constraints(
+        &mut self,
+        layout: &Layout,
+        phi: &[f64],
+        velocity_residual: &[f64],
+        lambda: &[f64],
+        active: Option<&[bool]>,
+    ) {
+        assert_eq!(phi.len(), layout.rows);
+        assert_eq!(velocity_residual.len(), layout.rows);
+        assert_eq!(lambda.len(), layout.rows);
+        for (j, jl) in layout.joints.iter().enumerate() {
+            let (mut p, mut v) = (0.0f64, 0.0f64);
+            for r in jl.first_row..jl.first_row + jl.rows {
+                let on = active.is_none_or(|a| a[r]);
+                self.lambda[r] = if on { lambda[r] } else { 0.0 };
+                if !on {
+                    continue;
+                }
+                match layout.row_kind[r] {
+                    RowKind::Holonomic => p = p.max(phi[r].abs()),
+                    RowKind::Nonholonomic => v = v.max(velocity_residual[r].abs()),
+                }
+            }
+            self.violation[j] = p;
+            self.velocity_violation[j] = v;
+        }
+    }
+
+    fn bytes(layout: &Layout) -> usize {
+        std::mem::size_of::<Frame>()
+            + layout.bodies() * (std::mem::size_of::<Pose>() + std::mem::size_of::<Twist>())
+            + (2 * layout.joints.len() + layout.rows) * 8
+    }
+}
+
+/// What a run is, for `summary.json`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct RunMeta {
+    /// Model name.
+    pub model: String,
+    /// Method name.
+    pub method: String,
+    /// Step size, s.
+    #[serde(with = "json::f64_any")]
+    pub step: f64,
+    /// Requested duration, s.
+    #[serde(with = "json::f64_any")]
+    pub duration: f64,
+}
+
+/// Why a run stopped early (the `failure` object of `summary.json`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Failure {
+    /// Simulated time of the last good state, s.
+    #[serde(with = "json::f64_any")]
+    pub time: f64,
+    /// Step number at which it went wrong.
+    pub step: u64,
+    /// The body or joint where it started (or `system`).
+    #[serde(rename = "where")]
+    pub location: String,
+    /// The quantity that went wrong.
+    pub quantity: String,
+    /// Its value (may be NaN or infinite; written as a string then).
+    #[serde(with = "json::f64_any")]
+    pub value: f64,
+    /// The likely cause.
+    pub cause: String,
+    /// What to try.
+    pub hint: Option<String>,
+}
+
+/// The content of `summary.json`.
+///
+/// Non-finite numbers are written as the strings `"NaN"`, `"inf"`, `"-inf"` (JSON has
+/// no such numbers) and read back.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Summary {
+    /// Model name.
+    pub model: String,
+    /// Method name.
+    pub method: String,
+    /// Step size, s.
+    #[serde(with = "json::f64_any")]
+    pub step: f64,
+    /// Requested duration, s.
+    #[serde(with = "json::f64_any")]
+    pub duration: f64,
+    /// Steps taken.
+    pub steps: u64,
+    /// Simulated time reached, s.
+    #[serde(with = "json::f64_any")]
+    pub final_time: f64,
+    /// Wall-clock time of the run, s.
+    #[serde(with = "json::f64_any")]
+    pub wall_time: f64,
+    /// Whether the run reached its duration.
+    pub finished: bool,
+    /// Why it stopped early.
+    pub failure: Option<Failure>,
+    /// Largest holonomic constraint violation. `None` in the summary given to
+    /// [`OutputWriter::finish`]: the largest over the written frames is filled in.
+    #[serde(with = "json::opt_f64_any")]
+    pub max_constraint_violation: Option<f64>,
+    /// The joint where it occurred (filled in like `max_constraint_violation`).
+    pub max_violation_joint: Option<String>,
+    /// Largest `|drift|` (see the module doc); filled in like `max_constraint_violation`.
+    #[serde(with = "json::opt_f64_any")]
+    pub max_energy_drift: Option<f64>,
+    /// Frames written to the CSV files (set by [`OutputWriter::finish`]).
+    pub frames: u64,
+    /// Method statistics and anything else (iterations, retries, ...).
+    pub extra: BTreeMap<String, serde_json::Value>,
+}
+
+impl Summary {
+    /// A summary of a run that has not finished (yet): no steps, no failure.
+    pub fn started(meta: &RunMeta) -> Summary {
+        Summary {
+            model: meta.model.clone(),
+            method: meta.method.clone(),
+            step: meta.step,
+            duration: meta.duration,
+            steps: 0,
+            final_time: 0.0,
+            wall_time: 0.0,
+            finished: false,
+            failure: None,
+            max_constraint_violation: None,
+            max_violation_joint: None,
+            max_energy_drift: None,
+            frames: 0,
+            extra: BTreeMap::new(),
+        }
+    }
+
+    /// Read a `summary.json`.
+    ///
+    /// # Errors
+    /// On I/O or format errors, with the path.
+    pub fn read(path: &Path) -> Result<Summary, OutputError> {
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| OutputError::io(OutputErrorKind::Read, path, e))?;
+        serde_json::from_str(&text).map_err(|e| OutputError::Json {
+            path: path.to_path_buf(),
+            message: e.to_string(),
+        })
+    }
+}
+
+/// What was being done when an I/O error happened.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum OutputErrorKind {
+    /// Creating the output folder.
+    CreateDir,
+    /// Creating a file.
+    Create,
+    /// Writing a file.
+    Write,
+    /// Reading a file.
+    Read,
+}
+
+impl std::fmt::Display for OutputErrorKind {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            OutputErrorKind::CreateDir => "cannot create the output folder",
+            OutputErrorKind::Create => "cannot create",
+            OutputErrorKind::Write => "cannot write",
+            OutputErrorKind::Read => "cannot read",
+        })
+    }
+}
+
+/// Errors of the output writers. Cheap to clone (the I/O error is shared).
+#[derive(Clone, Debug, thiserror::Error)]
+pub enum OutputError {
+    /// An I/O error on a path.
+    #[error("{kind} {}: {source}", path.display())]
+    Io {
+        /// What was being done.
+        kind: OutputErrorKind,
+        /// The file or folder.
+        path: PathBuf,
+        /// The underlying error.
+        #[source]
+        source: Arc<std::io::Error>,
+    },
+    /// `summary.json` could not be encoded or decoded.
+    #[error("{}: {message}", path.display())]
+    Json {
+        /// The file.
+        path: PathBuf,
+        /// What went wrong.
+        message: String,
+    },
+    /// The writer thread panicked.
+    #[error("the output writer thread for {} stopped unexpectedly", dir.display())]
+    Thread {
+        /// The output folder.
+        dir: PathBuf,
+    },
+}
+
+impl OutputError {
+    fn io(kind: OutputErrorKind, path: &Path, e: std::io::Error) -> OutputError {
+        OutputError::Io {
+            kind,
+            path: path.to_path_buf(),
+            source: Arc::new(e),
+        }
+    }
+
+    /// The path the error is about.
+    pub fn path(&self) -> &Path {
+        match self {
+            OutputError::Io { path, .. } | OutputError::Json { path, .. } => path,
+            OutputError::Thread { dir } => dir,
+        }
+    }
+}
+
+/// One CSV file being written by the writer thread.
+struct CsvFile {
+    path: PathBuf,
+    file: File,
+    buf: String,
+    /// Bytes known to be on disk (complete lines).
+    written: u64,
+    /// Tests: simulate a full disk once the file would exceed this size.
+    #[cfg(test)]
+    limit: Arc<std::sync::atomic::AtomicU64>,
+}
+
+impl CsvFile {
+    fn create(path: PathBuf, header: &str) -> Result<CsvFile, OutputError> {
+        let mut file =
+            File::create(&path).map_err(|e| OutputError::io(OutputErrorKind::Create, &path, e))?;
+        file.write_all(header.as_bytes())
+            .map_err(|e| OutputError::io(OutputErrorKind::Write, &path, e))?;
+        Ok(CsvFile {
+            path,
+            file,
+            buf: String::with_capacity(1 << 16),
+            written: header.len() as u64,
+            #[cfg(test)]
+            limit: Arc::new(std::sync::atomic::AtomicU64::new(u64::MAX)),
+        })
+    }
+
+    #[cfg(not(test))]
+    fn write_out(&mut self) -> std::io::Result<()> {
+        self.file.write_all(self.buf.as_bytes())
+    }
+
+    /// Like the real one, but the "disk" is full at `limit` bytes: the write is cut there
+    /// (mid-line, as a real partial write would be) and fails.
+    #[cfg(test)]
+    fn write_out(&mut self) -> std::io::Result<()> {
+        let room = self
+            .limit
+            .load(Ordering::Relaxed)
+            .saturating_sub(self.written) as usize;
+        if self.buf.len() > room {
+            self.file.write_all(&self.buf.as_bytes()[..room])?;
+            return Err(std::io::Error::new(
+                std::io::ErrorKind::StorageFull,
+                "no space left on device (simulated)",
+            ));
+        }
+        self.file.write_all(self.buf.as_bytes())
+    }
+
+    /// Write the pending lines. On error, truncate back to the last complete batch.
+    fn flush(&mut self) -> Result<(), OutputError> {
+        if self.buf.is_empty() {
+            return Ok(());
+        }
+        match self.write_out() {
+            Ok(()) => {
+                self.written += self.buf.len() as u64;
+                self.buf.clear();
+                Ok(())
+            }
+            Err(e) => {
+                let _ = self.file.set_len(self.written);
+                self.buf.clear();
+                Err(OutputError::io(OutputErrorKind::Write, &self.path, e))
+            }
+        }
+    }
+}
+
+/// Flush a file's batch early once it exceeds this many bytes.
+const BATCH_BYTES: usize = 1 << 20;
+/// Memory budget of the frame pool.
+const POOL_BYTES: usize = 64 << 20;
+/// Most frames in the pool.
+const POOL_MAX: usize = 32;
+
+/// Statistics the writer thread gathers from the frames it writes.
+#[derive(Clone, Debug, Default)]
+struct Stats {
+    frames: u64,
+    e0: Option<f64>,
+    k_max: f64,
+    v_min: f64,
+    v_max: f64,
+    max_drift: f64,
+    max_violation: f64,
+    max_violation_joint: Option<usize>,
+}
+
+impl Stats {
+    /// Update with a frame; returns its drift.
+    fn add(&mut self, f: &Frame) -> f64 {
+        let e = f.kinetic + f.potential;
+        let e0 = *self.e0.get_or_insert(e);
+        if self.frames == 0 {
+            self.v_min = f.potential;
+            self.v_max = f.potential;
+        }
+        self.frames += 1;
+        self.k_max = self.k_max.max(f.kinetic);
+        self.v_min = self.v_min.min(f.potential);
+        self.v_max = self.v_max.max(f.potential);
+        let scale = e0
+            .abs()
+            .max(self.k_max + (self.v_max - self.v_min))
+            .max(1e-300);
+        let drift = (e - e0) / scale;
+        // Maxima keep the first NaN they see (f64::max would ignore it).
+        if !self.max_drift.is_nan() && (drift.is_nan() || drift.abs() > self.max_drift) {
+            self.max_drift = drift.abs();
+        }
+        for (j, &v) in f.violation.iter().enumerate() {
+            if self.max_violation.is_nan() {
+                break;
+            }
+            if self.max_violation_joint.is_none() || v.is_nan() || v > self.max_violation {
+                self.max_violation = v;
+                self.max_violation_joint = Some(j);
+            }
+        }
+        drift
+    }
+}
+
+/// The writer thread's state.
+struct Worker {
+    layout: Layout,
+    bodies: Option<CsvFile>,
+    energy: Option<CsvFile>,
+    constraints: Option<CsvFile>,
+    stats: Stats,
+    failed: Arc<AtomicBool>,
+    error: Arc<Mutex<Option<OutputError>>>,
+}
+
+impl Worker {
+    fn files(&mut self) -> impl Iterator<Item = &mut CsvFile> {
+        [&mut self.bodies, &mut self.energy, &mut self.constraints]
+            .into_iter()
+            .flatten()
+    }
+
+    fn fail(&mut self, e: OutputError) {
+        let mut slot = self.error.lock().unwrap_or_else(|p| p.into_inner());
+        if slot.is_none() {
+            *slot = Some(e);
+        }
+        self.failed.store(true, Ordering::Release);
+    }
+
+    fn write(&mut self, f: &Frame) {
+        let drift = self.stats.add(f);
+        if self.failed.load(Ordering::Acquire) {
+            return;
+        }
+        if let Some(c) = &mut self.bodies {
+            csv::bodies_row(&mut c.buf, f);
+        }
+        if let Some(c) = &mut self.energy {
+            csv::energy_row(&mut c.buf, f, drift);
+        }
+        if let Some(c) = &mut self.constraints {
+            csv::constraints_row(&mut c.buf, &self.layout, f);
+        }
+        let big = self.files().any(|c| c.buf.len() >= BATCH_BYTES);
+        if big {
+            self.flush();
+        }
+    }
+
+    fn flush(&mut self) {
+        if self.failed.load(Ordering::Acquire) {
+            return;
+        }
+        let mut err = None;
+        for c in self.files() {
+            if let Err(e) = c.flush() {
+                err = Some(e);
+                break;
+            }
+        }
+        if let Some(e) = err {
+            self.fail(e);
+        }
+    }
+
+    fn run(mut self, rx: Receiver<Frame>, pool: SyncSender<Frame>) -> Stats {
+        while let Ok(first) = rx.recv() {
+            self.write(&first);
+            let _ = pool.try_send(first);
+            while let Ok(f) = rx.try_recv() {
+                self.write(&f);
+                let _ = pool.try_send(f);
+            }
+            self.flush();
+        }
+        self.flush();
+        self.stats
+    }
+}
+
+/// Streams frames to CSV files on a background thread and writes `summary.json`.
+/// See the module doc.
+pub struct OutputWriter {
+    dir: PathBuf,
+    meta: RunMeta,
+    joint_names: Vec<String>,
+    layout_for_fallback: Layout,
+    tx: Option<SyncSender<Frame>>,
+    pool: Receiver<Frame>,
+    failed: Arc<AtomicBool>,
+    error: Arc<Mutex<Option<OutputError>>>,
+    handle: Option<JoinHandle<Stats>>,
+    pool_size: usize,
+    #[cfg(test)]
+    limits: Vec<(String, Arc<std::sync::atomic::AtomicU64>)>,
+}
+
+impl std::fmt::Debug for OutputWriter {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("OutputWriter")
+            .field("dir", &self.dir)
+            .field("pool_size", &self.pool_size)
+            .finish()
+    }
+}
+
+impl OutputWriter {
+    /// Create the folder (and parents), the CSV files the spec asks for with their
+    /// headers, an initial `summary.json` (`finished: false`), the frame pool, and start
+    /// the writer thread.
+    ///
+    /// # Errors
+    /// [`OutputError::Io`] with the path when the folder or a file cannot be created or
+    /// written.
+    pub fn create(
+        dir: &Path,
+        layout: &Layout,
+        spec: &OutputSpec,
+        meta: RunMeta,
+    ) -> Result<OutputWriter, OutputError> {
+        std::fs::create_dir_all(dir)
+            .map_err(|e| OutputError::io(OutputErrorKind::CreateDir, dir, e))?;
+        let bodies = spec
+            .bodies
+            .then(|| CsvFile::create(dir.join("bodies.csv"), &bodies_header(layout)))
+            .transpose()?;
+        let energy = spec
+            .energy
+            .then(|| CsvFile::create(dir.join("energy.csv"), &energy_header()))
+            .transpose()?;
+        let constraints = spec
+            .constraints
+            .then(|| CsvFile::create(dir.join("constraints.csv"), &constraints_header(layout)))
+            .transpose()?;
+        write_summary(dir, &Summary::started(&meta))?;
+
+        let pool_size = (POOL_BYTES / Frame::bytes(layout)).clamp(2, POOL_MAX);
+        let (tx, rx) = sync_channel::<Frame>(pool_size);
+        let (pool_tx, pool_rx) = sync_channel::<Frame>(pool_size);
+        // The first blocking wait on a channel allocates (a thread-local wait context and
+        // the channel's waiter list, both kept afterwards): wait once here, on the empty
+        // pool, so that `frame()` never allocates on this thread.
+        let _ = pool_rx.recv_timeout(std::time::Duration::from_micros(1));
+        for _ in 0..pool_size {
+            pool_tx.send(Frame::new(layout)).expect("pool has room");
+        }
+        let failed = Arc::new(AtomicBool::new(false));
+        let error = Arc::new(Mutex::new(None));
+        #[cfg(test)]
+        let limits = [&bodies, &energy, &constraints]
+            .into_iter()
+            .flatten()
+            .map(|c| {
+                let name = c
+                    .path
+                    .file_name()
+                    .map(|n| n.to_string_lossy().into_owned())
+                    .unwrap_or_default();
+                (name, c.limit.clone())
+            })
+            .collect();
+        let worker = Worker {
+            layout: layout.clone(),
+            bodies,
+            energy,
+            constraints,
+            stats: Stats::default(),
+            failed: failed.clone(),
+            error: error.clone(),
+        };
+        let handle = std::thread::Builder::new()
+            .name("mbdc-output".into())
+            .spawn(move || worker.run(rx, pool_tx))
+            .map_err(|e| OutputError::io(OutputErrorKind::Create, dir, e))?;
+        Ok(OutputWriter {
+            dir: dir.to_path_buf(),
+            meta,
+            joint_names: layout.joints.iter().map(|j| j.name.clone()).collect(),
+            layout_for_fallback: layout.clone(),
+            tx: Some(tx),
+            pool: pool_rx,
+            failed,
+            error,
+            handle: Some(handle),
+            pool_size,
+            #[cfg(test)]
+            limits,
+        })
+    }
+
+    /// Tests: make the file `name` fail with "disk full" once it would exceed `bytes`.
+    #[cfg(test)]
+    fn limit_file_bytes_for_test(&self, name: &str, bytes: u64) {
+        let (_, l) = self
+            .limits
+            .iter()
+            .find(|(n, _)| n == name)
+            .expect("file is written");
+        l.store(bytes, Ordering::Relaxed);
+    }
+
+    /// The output folder.
+    pub fn dir(&self) -> &Path {
+        &self.dir
+    }
+
+    /// Number of frame buffers in the pool.
+    pub fn pool_size(&self) -> usize {
+        self.pool_size
+    }
+
+    /// A frame buffer to fill (its previous content is stale: overwrite every field).
+    /// Blocks while every buffer is queued for writing (holding more than
+    /// [`OutputWriter::pool_size`] frames at once would therefore wait forever).
+    /// Allocation-free on the thread that created the writer; on another thread the
+    /// first wait allocates the thread's wait context once. If the writer thread has
+    /// died, a fresh frame is allocated so the run can continue to its end and report
+    /// (the next `submit` returns the error).
+    pub fn frame(&mut self) -> Frame {
+        match self.pool.recv() {
+            Ok(f) => f,
+            Err(_) => Frame::new(&self.layout_for_fallback),
+        }
+    }
+
+    /// Queue a filled frame for writing. Allocation-free.
+    ///
+    /// # Errors
+    /// The first write error of the writer thread (with the path). After an error
+    /// nothing more is written; the frames already on disk stay valid.
+    pub fn submit(&mut self, frame: Frame) -> Result<(), OutputError> {
+        if self.failed.load(Ordering::Acquire) {
+            return Err(self.current_error());
+        }
+        match &self.tx {
+            Some(tx) => tx.send(frame).map_err(|_| self.current_error()),
+            None => Err(OutputError::Thread {
+                dir: self.dir.clone(),
+            }),
+        }
+    }
+
+    fn current_error(&self) -> OutputError {
+        let slot = self.error.lock().unwrap_or_else(|p| p.into_inner());
+        slot.clone().unwrap_or_else(|| OutputError::Thread {
+            dir: self.dir.clone(),
+        })
+    }
+
+    /// Stop the writer thread after it has written every queued frame, then write
+    /// `summary.json` from `summary`, filling in what the writer measured when the
+    /// summary leaves it open (`max_constraint_violation`, `max_violation_joint`,
+    /// `max_energy_drift`) and the number of frames written. Also called after a failed
+    /// run, with the failure filled in. Returns the summary as written.
+    ///
+    /// # Errors
+    /// The first write error of the writer thread (the summary is still written if
+    /// possible), or an error writing `summary.json`.
+    pub fn finish(mut self, summary: &Summary) -> Result<Summary, OutputError> {
+        let stats = self.join();
+        let mut s = summary.clone();
+        if let Some(st) = &stats {
+            s.frames = st.frames;
+            if s.max_constraint_violation.is_none() && st.max_violation_joint.is_some() {
+                s.max_constraint_violation = Some(st.max_violation);
+                s.max_violation_joint = st.max_violation_joint.map(|j| self.joint_names[j].clone());
+            }
+            if s.max_energy_drift.is_none() && st.frames > 0 {
+                s.max_energy_drift = Some(st.max_drift);
+            }
+        }
+        let written = write_summary(&self.dir, &s);
+        if stats.is_none() {
+            return Err(OutputError::Thread {
+                dir: self.dir.clone(),
+            });
+        }
+        if self.failed.load(Ordering::Acquire) {
+            return Err(self.current_error());
+        }
+        written.map(|()| s)
+    }
+
+    /// The run description given at creation.
+    pub fn meta(&self) -> &RunMeta {
+        &self.meta
+    }
+
+    /// Close the queue and wait for the thread; `None` if it panicked.
+    fn join(&mut self) -> Option<Stats> {
+        self.tx = None;
+        self.handle.take().and_then(|h| h.join().ok())
+    }
+}
+
+impl Drop for OutputWriter {
+    /// Dropping without [`OutputWriter::finish`] (a run that was stopped): every queued
+    /// frame is still written and flushed; `summary.json` keeps `finished: false`.
+    fn drop(&mut self) {
+        let _ = self.join();
+    }
+}
+
+/// Write `summary.json` atomically (temporary file, then rename).
+fn write_summary(dir: &Path, s: &Summary) -> Result<(), OutputError> {
+    let path = dir.join("summary.json");
+    let tmp = dir.join(".summary.json.tmp");
+    let text = serde_json::to_string_pretty(s).map_err(|e| OutputError::Json {
+        path: path.clone(),
+        message: e.to_string(),
+    })?;
+    let mut f =
+        File::create(&tmp).map_err(|e| OutputError::io(OutputErrorKind::Create, &tmp, e))?;
+    f.write_all(text.as_bytes())
+        .and_then(|()| f.write_all(b"\n"))
+        .map_err(|e| OutputError::io(OutputErrorKind::Write, &tmp, e))?;
+    drop(f);
+    std::fs::rename(&tmp, &path).map_err(|e| OutputError::io(OutputErrorKind::Write, &path, e))
+}
+
+#[cfg(test)]
+mod tests;
