@@ -246,11 +246,33 @@ fn span_of(pair: &Pair<'_, Rule>) -> Span {
     Span::new(s.start(), s.end())
 }
 
-fn ident_of(pair: &Pair<'_, Rule>) -> Ident {
-    Ident {
-        name: pair.as_str().to_string(),
-        span: span_of(pair),
+/// A name; reserved words are refused here (the grammar accepts them as names, see
+/// grammar.pest).
+fn ident_of(pair: &Pair<'_, Rule>) -> Res<Ident> {
+    let name = pair.as_str();
+    let span = span_of(pair);
+    if RESERVED.contains(&name) {
+        return Err(reserved_error(name, span));
     }
+    Ok(Ident {
+        name: name.to_string(),
+        span,
+    })
+}
+
+fn reserved_error(word: &str, span: Span) -> ParseError {
+    if word == "else" {
+        return ParseError::new(span, "`else` without `if`")
+            .with_help("`else` must follow the closing `}` of an `if` block");
+    }
+    ParseError::new(
+        span,
+        format!("`{word}` is a reserved word and cannot be used as a name"),
+    )
+    .with_help(format!(
+        "choose another name; the reserved words are {}",
+        RESERVED.map(|r| format!("`{r}`")).join(" ")
+    ))
 }
 
 fn too_deep(span: Span) -> ParseError {
@@ -444,7 +466,7 @@ impl<'t> Builder<'t> {
     #[inline(never)]
     fn value_item(&mut self, mut parts: Parts<'_>, param: bool) -> Res<(ItemKind, u32)> {
         let _kw = parts.next("keyword")?;
-        let name = ident_of(&parts.next("name")?);
+        let name = ident_of(&parts.next("name")?)?;
         let (value, h) = self.expr(parts.next("value")?)?;
         Ok(if param {
             (ItemKind::Param { name, value }, h)
@@ -457,7 +479,7 @@ impl<'t> Builder<'t> {
     fn component_item(&mut self, mut parts: Parts<'_>) -> Res<(ItemKind, u32)> {
         let span = parts.span;
         let _kw = parts.next("keyword")?;
-        let name = ident_of(&parts.next("name")?);
+        let name = ident_of(&parts.next("name")?)?;
         let mut params = Vec::new();
         let mut height = 0;
         let mut body = None;
@@ -475,7 +497,7 @@ impl<'t> Builder<'t> {
                         None => None,
                     };
                     params.push(ComponentParam {
-                        name: ident_of(&pname),
+                        name: ident_of(&pname)?,
                         default,
                     });
                 }
@@ -495,7 +517,7 @@ impl<'t> Builder<'t> {
     #[inline(never)]
     fn for_item(&mut self, mut parts: Parts<'_>) -> Res<(ItemKind, u32)> {
         let _kw = parts.next("keyword")?;
-        let var = ident_of(&parts.next("variable")?);
+        let var = ident_of(&parts.next("variable")?)?;
         let _in = parts.next("in")?;
         let (start, h1) = self.expr(parts.next("start")?)?;
         let (end, h2) = self.expr(parts.next("end")?)?;
@@ -586,7 +608,7 @@ impl<'t> Builder<'t> {
     #[inline(never)]
     fn decl_item(&mut self, mut parts: Parts<'_>) -> Res<(ItemKind, u32)> {
         let span = parts.span;
-        let keyword = ident_of(&parts.next("keyword")?);
+        let keyword = ident_of(&parts.next("keyword")?)?;
         let mut name = None;
         let mut value = None;
         let mut body = None;
@@ -634,7 +656,7 @@ impl<'t> Builder<'t> {
 
     #[inline(never)]
     fn prop_item(&mut self, mut parts: Parts<'_>) -> Res<(ItemKind, u32)> {
-        let key = ident_of(&parts.next("key")?);
+        let key = ident_of(&parts.next("key")?)?;
         let mut values = Vec::new();
         let mut height = 0;
         while let Some(p) = parts.try_next() {
@@ -653,7 +675,7 @@ impl<'t> Builder<'t> {
         let base = ident_of(
             &it.next()
                 .ok_or_else(|| ParseError::new(span, "internal error: name"))?,
-        );
+        )?;
         let mut indices = Vec::new();
         let mut height = 0;
         for p in it {
@@ -899,7 +921,7 @@ impl<'t> Builder<'t> {
             }
             Rule::ident => (
                 Expr {
-                    kind: ExprKind::Ident(ident_of(&first)),
+                    kind: ExprKind::Ident(ident_of(&first)?),
                     span: span_of(&first),
                 },
                 1,
@@ -953,7 +975,7 @@ impl<'t> Builder<'t> {
                             expr = Expr {
                                 kind: ExprKind::Member {
                                     base: Box::new(expr),
-                                    member: ident_of(&m),
+                                    member: ident_of(&m)?,
                                 },
                                 span: nspan,
                             };
@@ -1001,7 +1023,7 @@ impl<'t> Builder<'t> {
         let func = ident_of(
             &it.next()
                 .ok_or_else(|| ParseError::new(span, "internal error: call"))?,
-        );
+        )?;
         let mut args = Vec::new();
         let mut height = 0;
         if let Some(a) = it.next() {
@@ -1011,10 +1033,9 @@ impl<'t> Builder<'t> {
                 for p in arg.into_inner() {
                     match p.as_rule() {
                         Rule::arg_name => {
-                            name = p
-                                .into_inner()
-                                .find(|p| p.as_rule() == Rule::ident)
-                                .map(|p| ident_of(&p));
+                            if let Some(p) = p.into_inner().find(|p| p.as_rule() == Rule::ident) {
+                                name = Some(ident_of(&p)?);
+                            }
                         }
                         Rule::expr => {
                             let (e, h) = self.expr(p)?;
@@ -1127,7 +1148,20 @@ impl<'t> Builder<'t> {
                             })?,
                         None => sign,
                     };
-                    factors.push((ident_of(&name), exp));
+                    let uname = name.as_str();
+                    if uname != "in" && RESERVED.contains(&uname) {
+                        return Err(ParseError::new(
+                            span_of(&name),
+                            format!("`{uname}` is a reserved word and cannot be a unit"),
+                        ));
+                    }
+                    factors.push((
+                        Ident {
+                            name: uname.to_string(),
+                            span: span_of(&name),
+                        },
+                        exp,
+                    ));
                 }
                 _ => {}
             }
@@ -1581,23 +1615,12 @@ fn explain_pest_error(err: pest::error::Error<Rule>, text: &str, expr_mode: bool
 
     // A reserved word where a name or an expression was expected.
     if let Some(w) = found_word {
-        if RESERVED.contains(&w) {
-            if w == "else" {
-                return ParseError::new(found_span, "`else` without `if`")
-                    .with_help("`else` must follow the closing `}` of an `if` block");
-            }
-            if !matches!(w, "not" | "true" | "false" | "and" | "or")
+        if w == "else"
+            || RESERVED.contains(&w)
+                && !matches!(w, "not" | "true" | "false" | "and" | "or")
                 && wants.iter().any(|x| matches!(x, Want::Name | Want::Expr))
-            {
-                return ParseError::new(
-                    found_span,
-                    format!("`{w}` is a reserved word and cannot be used as a name"),
-                )
-                .with_help(format!(
-                    "reserved words: {}",
-                    RESERVED.map(|r| format!("`{r}`")).join(" ")
-                ));
-            }
+        {
+            return reserved_error(w, found_span);
         }
     }
 
