@@ -124,7 +124,7 @@ pub fn method_text(m: &MethodSpec) -> String {
         MethodSpec::Staggered(o) => {
             let mut v = Vec::new();
             match o.epsilon {
-                Some(e) => v.push(format!("epsilon {e}")),
+                Some(e) => v.push(format!("epsilon {}", short(e))),
                 None => v.push("epsilon default".into()),
             }
             if o.single_stage {
@@ -137,15 +137,18 @@ pub fn method_text(m: &MethodSpec) -> String {
             v
         }
         MethodSpec::Baumgarte { alpha, beta } => {
-            vec![format!("alpha {alpha}/s"), format!("beta {beta}/s")]
+            vec![
+                format!("alpha {}/s", short(*alpha)),
+                format!("beta {}/s", short(*beta)),
+            ]
         }
         MethodSpec::Penalty { epsilon } | MethodSpec::NaturalPartitioning { epsilon, .. } => {
             let mut v = vec![match epsilon {
-                Some(e) => format!("epsilon {e}"),
+                Some(e) => format!("epsilon {}", short(*e)),
                 None => "epsilon default".into(),
             }];
             if let MethodSpec::NaturalPartitioning { tolerance, .. } = m {
-                v.push(format!("tolerance {tolerance}"));
+                v.push(format!("tolerance {}", short(*tolerance)));
             }
             v
         }
@@ -155,7 +158,7 @@ pub fn method_text(m: &MethodSpec) -> String {
             max_iterations,
         } => {
             vec![
-                format!("tolerance {tolerance}"),
+                format!("tolerance {}", short(*tolerance)),
                 format!("max_iterations {max_iterations}"),
             ]
         }
@@ -233,7 +236,7 @@ pub fn summary(scene: &Scene) -> CheckSummary {
         })
         .collect();
     let steps = if scene.simulate.step > 0.0 {
-        (scene.simulate.duration / scene.simulate.step)
+        (scene.simulate.duration / scene.simulate.step * (1.0 - 1e-12))
             .ceil()
             .min(u64::MAX as f64) as u64
     } else {
@@ -299,6 +302,16 @@ fn list(names: &[String], max: usize) -> String {
         s.push_str(&format!(", … ({} more)", names.len() - max));
     }
     s
+}
+
+/// A number in a short form: `0.15`, `1e-6`, `2.5e6`.
+pub fn short(x: f64) -> String {
+    if x != 0.0 && (x.abs() < 1e-3 || x.abs() >= 1e6) {
+        let s = format!("{x:e}");
+        s
+    } else {
+        format!("{x}")
+    }
 }
 
 fn sci(x: f64) -> String {
@@ -368,16 +381,18 @@ impl fmt::Display for CheckSummary {
         if self.joints.len() > 20 {
             writeln!(f, "    … ({} more)", self.joints.len() - 20)?;
         }
-        write!(
-            f,
-            "  DOF          {} (Grübler: 6·{} − {})",
-            self.dof,
-            self.bodies.len(),
-            self.holonomic_rows
-        )?;
-        match self.jacobian_rank {
-            Some((r, m)) if m > 0 => writeln!(f, "; Jacobian rank {r} of {m} rows at t = 0")?,
-            _ => writeln!(f)?,
+        if !self.bodies.is_empty() {
+            write!(
+                f,
+                "  DOF          {} (Grübler: 6·{} − {})",
+                self.dof,
+                self.bodies.len(),
+                self.holonomic_rows
+            )?;
+            match self.jacobian_rank {
+                Some((r, m)) if m > 0 => writeln!(f, "; Jacobian rank {r} of {m} rows at t = 0")?,
+                _ => writeln!(f)?,
+            }
         }
         writeln!(f, "  free bodies  {}", list(&self.free_bodies, 12))?;
         let forces: Vec<String> = self
@@ -404,7 +419,13 @@ impl fmt::Display for CheckSummary {
             )?;
         }
         if let Some(g) = self.gravity {
-            writeln!(f, "  gravity      ({}, {}, {}) m/s^2", g[0], g[1], g[2])?;
+            writeln!(
+                f,
+                "  gravity      ({}, {}, {}) m/s^2",
+                short(g[0]),
+                short(g[1]),
+                short(g[2])
+            )?;
         }
         writeln!(
             f,
@@ -431,7 +452,7 @@ impl fmt::Display for CheckSummary {
                     format!(
                         "{} = {}{}",
                         p.name,
-                        p.value,
+                        short(p.value),
                         if p.overridden { " (set)" } else { "" }
                     )
                 })
