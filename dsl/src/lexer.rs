@@ -59,7 +59,12 @@ pub(crate) fn prelex(src: &str, as_expression: bool) -> Result<Lexed, ParseError
     let in_brackets =
         |stack: &Vec<(u8, usize)>| as_expression || matches!(stack.last(), Some((b'(' | b'[', _)));
 
+    // A byte-order mark (as some Windows editors write) is whitespace.
     let mut i = 0;
+    if bytes.starts_with("\u{feff}".as_bytes()) {
+        out[..3].fill(b' ');
+        i = 3;
+    }
     while i < n {
         let b = bytes[i];
         match b {
@@ -354,4 +359,101 @@ fn misindented_brace(src: &str, pairs: &[(usize, usize)]) -> Option<String> {
         }
     }
     None
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn masked(src: &str) -> String {
+        prelex(src, false)
+            .map(|l| l.masked)
+            .unwrap_or_else(|e| panic!("{e:?}"))
+    }
+
+    #[test]
+    fn masked_text_has_the_same_length_and_marks_item_ends() {
+        // Newlines that end items stay; the others become form feeds.
+        assert_eq!(masked("a 1\nb (1,\n2)\n"), "a 1\nb (1,\u{c}2)\n");
+        assert_eq!(masked("a [\n1\n]\n"), "a [\u{c}1\u{c}]\n");
+        assert_eq!(masked("x a +\nb\n"), "x a +\u{c}b\n");
+        assert_eq!(masked("x a and\nb or\nc\n"), "x a and\u{c}b or\u{c}c\n");
+        assert_eq!(masked("x a,\nb\n"), "x a,\u{c}b\n");
+        assert_eq!(masked("x a ==\nb\n"), "x a ==\u{c}b\n");
+        // `=` alone does not continue a line, nor does a word that merely starts like an
+        // operator.
+        assert_eq!(masked("x a =\nb\n"), "x a =\nb\n");
+        assert_eq!(masked("x android\nb\n"), "x android\nb\n");
+        // Before `else`, even across blank lines and comments.
+        assert_eq!(
+            masked("if a {\n}\n\nelse {\n}\n"),
+            "if a {\n}\u{c}\u{c}else {\n}\n"
+        );
+        assert_eq!(
+            masked("if a {\n} // c\nelse {}"),
+            "if a {\n}     \u{c}else {}"
+        );
+        assert_eq!(masked("if a {}\nelsewhere 1"), "if a {}\nelsewhere 1");
+    }
+
+    #[test]
+    fn comments_are_collected_and_blanked() {
+        let l = prelex("a 1 // one\n/* two\nlines */ b 2 // é\r\n", false)
+            .unwrap_or_else(|e| panic!("{e:?}"));
+        let src = "a 1 // one\n/* two\nlines */ b 2 // é\r\n";
+        assert_eq!(l.masked, "a 1       \n      \n         b 2       \n");
+        let texts: Vec<&str> = l.comments.iter().map(|c| c.text.as_str()).collect();
+        assert_eq!(texts, ["// one", "/* two\nlines */", "// é"]);
+        for c in &l.comments {
+            assert_eq!(&src[c.span.start..c.span.end], c.text);
+        }
+        // Comment markers inside strings are text; escaped quotes do not end a string.
+        let l = prelex(r#"import "a//b\"/*c""#, false).unwrap_or_else(|e| panic!("{e:?}"));
+        assert!(l.comments.is_empty());
+        assert_eq!(l.masked, r#"import "a//b\"/*c""#);
+    }
+
+    #[test]
+    fn newlines_inside_a_block_comment_follow_the_same_rules() {
+        assert_eq!(masked("a 1 /* x\ny */ b 2"), "a 1     \n     b 2");
+        assert_eq!(masked("f(1, /* x\ny */ 2)"), "f(1,     \u{c}     2)");
+    }
+
+    #[test]
+    fn byte_order_mark_is_whitespace() {
+        assert_eq!(masked("\u{feff}a 1"), "   a 1");
+    }
+
+    #[test]
+    fn brackets_are_matched_and_depth_is_measured() {
+        let l = prelex("a {\n  b (1, [2])\n}\n", false).unwrap_or_else(|e| panic!("{e:?}"));
+        assert_eq!(l.max_depth, 3);
+        assert_eq!(l.pairs, vec![(12, 14), (8, 15), (2, 17)]);
+        let e = prelex("(((", false).expect_err("unclosed");
+        assert_eq!(
+            (e.span, e.message.as_str()),
+            (Span::new(2, 3), "unclosed `(` opened here")
+        );
+        let deep = "(".repeat(MAX_NESTING + 1);
+        let e = prelex(&deep, false).expect_err("too deep");
+        assert_eq!(e.span, Span::new(MAX_NESTING, MAX_NESTING + 1));
+        assert!(prelex(&"(".repeat(MAX_NESTING), false)
+            .is_err_and(|e| e.message.starts_with("unclosed")));
+    }
+
+    #[test]
+    fn expression_mode_treats_every_newline_as_whitespace() {
+        let l = prelex("1\n+ 2\n", true).unwrap_or_else(|e| panic!("{e:?}"));
+        assert_eq!(l.masked, "1\u{c}+ 2\u{c}");
+    }
+
+    #[test]
+    fn line_and_column_count_characters() {
+        let src = "ab\nçd\n";
+        assert_eq!(line_col(src, 0), (1, 1));
+        assert_eq!(line_col(src, 3), (2, 1));
+        assert_eq!(line_col(src, 5), (2, 2));
+        assert_eq!(line_col(src, 4), (2, 1), "inside a character: its start");
+        assert_eq!(line_col(src, 99), (3, 1));
+    }
 }

@@ -1762,6 +1762,33 @@ fn explain_pest_error(err: pest::error::Error<Rule>, text: &str, expr_mode: bool
     e
 }
 
+/// The length of the number literal at the start of `s`, as the grammar reads it
+/// (`12`, `2.5`, `1e-6`; the `e` of `2e` is not part of the number).
+fn number_len(s: &str) -> usize {
+    let b = s.as_bytes();
+    let digits = |mut i: usize| {
+        while i < b.len() && b[i].is_ascii_digit() {
+            i += 1;
+        }
+        i
+    };
+    let mut i = digits(0);
+    if b.get(i) == Some(&b'.') && b.get(i + 1).is_some_and(u8::is_ascii_digit) {
+        i = digits(i + 1);
+    }
+    if matches!(b.get(i), Some(b'e' | b'E')) {
+        let j = if matches!(b.get(i + 1), Some(b'+' | b'-')) {
+            i + 2
+        } else {
+            i + 1
+        };
+        if b.get(j).is_some_and(u8::is_ascii_digit) {
+            i = digits(j);
+        }
+    }
+    i
+}
+
 /// The unit-like word at `pos`: letters, digits, `_`, `*`, `/`, `^`, `-` up to a space.
 fn unit_word_at(text: &str, pos: usize) -> &str {
     let bytes = text.as_bytes();
@@ -1793,15 +1820,11 @@ fn unit_before(text: &str, pos: usize) -> Option<&str> {
     let run = &text[s..e];
     let first = *run.as_bytes().first()?;
     if first.is_ascii_digit() && !run.starts_with("1/") {
-        // A number glued to its unit (`2kg`): the unit starts at the first letter.
-        let u = run.find(|c: char| c.is_ascii_alphabetic() || c == '_')?;
-        let unit = &run[u..];
-        let number = &run[..u];
-        // `1e-6` has no unit: the letter belongs to the exponent.
-        if number.ends_with(['e', 'E']) || unit.len() <= 1 && number.contains(['e', 'E']) {
-            return None;
-        }
-        return Some(unit);
+        // A number glued to its unit (`2kg`): the unit starts where the number ends.
+        let unit = &run[number_len(run)..];
+        return unit
+            .starts_with(|c: char| c.is_ascii_alphabetic() || c == '_')
+            .then_some(unit);
     }
     let mut j = s;
     while j > 0 && matches!(bytes[j - 1], b' ' | b'\t') {
@@ -1809,4 +1832,71 @@ fn unit_before(text: &str, pos: usize) -> Option<&str> {
     }
     let before = *bytes.get(j.checked_sub(1)?)?;
     (before == b')' || before.is_ascii_digit()).then_some(run)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn blanked(src: &str, pos: usize) -> Option<String> {
+        let lexed = prelex(src, false).unwrap_or_else(|e| panic!("{e:?}"));
+        let mut text = lexed.masked;
+        blank_region(&mut text, pos, &lexed.pairs).then_some(text)
+    }
+
+    #[test]
+    fn recovery_blanks_the_broken_item_only() {
+        let src = "model m {\n  a 1 2\n  b 3\n}\n";
+        assert_eq!(
+            blanked(src, 16).as_deref(),
+            Some("model m {\n       \n  b 3\n}\n")
+        );
+        // A block opened on the broken line goes with it, the enclosing `}` stays.
+        let src = "m {\n  body x y {\n    mass 1\n  }\n  c 1 }\n";
+        assert_eq!(
+            blanked(src, 13).as_deref(),
+            Some("m {\n            \n          \n   \n  c 1 }\n")
+        );
+        let src = "m {\n  c 1 2 }\n";
+        assert_eq!(blanked(src, 10).as_deref(), Some("m {\n        }\n"));
+        // A block on the next line belongs to the broken item.
+        let src = "if x\n{ a 1 }\nb 2\n";
+        assert_eq!(blanked(src, 4).as_deref(), Some("    \n       \nb 2\n"));
+        // Nothing left to remove: no progress.
+        assert_eq!(blanked("a 1\n\n", 4), None);
+    }
+
+    #[test]
+    fn unit_before_finds_the_unit_of_a_number() {
+        assert_eq!(unit_before("mass 2 kg m", 10), Some("kg"));
+        assert_eq!(unit_before("mass 2kg m", 9), Some("kg"));
+        assert_eq!(unit_before("x (1) m/s kg", 10), Some("m/s"));
+        assert_eq!(unit_before("x a kg", 5), None);
+        assert_eq!(unit_before("x 1e5 y", 6), None);
+        assert_eq!(unit_before("x 2e y", 5), Some("e"));
+        assert_eq!(unit_before("x 1.5e-3kg y", 11), Some("kg"));
+        assert_eq!(
+            (
+                number_len("12ab"),
+                number_len("2.5e-3"),
+                number_len("2e"),
+                number_len("1.x")
+            ),
+            (2, 6, 1, 1)
+        );
+    }
+
+    #[test]
+    fn precedences_are_ordered_as_documented() {
+        use BinOp::*;
+        let order = [At, Or, And, Eq, Add, Mul, Pow];
+        assert!(order.windows(2).all(|w| bin_prec(w[0]) < bin_prec(w[1])));
+        assert!(bin_prec(And) < un_prec(UnOp::Not) && un_prec(UnOp::Not) < bin_prec(Eq));
+        assert!(bin_prec(Mul) < un_prec(UnOp::Neg) && un_prec(UnOp::Neg) < bin_prec(Pow));
+        for op in [
+            Add, Sub, Mul, Div, Rem, Pow, Eq, Ne, Lt, Le, Gt, Ge, And, Or, At,
+        ] {
+            assert_eq!(bin_op(op.as_str()), Some(op));
+        }
+    }
 }
