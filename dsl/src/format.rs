@@ -12,7 +12,9 @@
 //! * Leading comments are printed on their own lines above their item, a trailing comment
 //!   after its item, separated by one space; comments are printed verbatim.
 //! * `else if` is printed as such when the `else` block holds nothing but one `if` item
-//!   without comments; otherwise as `else { ... }`.
+//!   without comments; otherwise as `else { ... }`. An `if` chain is printed on one line
+//!   only if all its blocks can be and the whole chain fits in [`MAX_WIDTH`]; otherwise
+//!   every block of the chain is printed on several lines.
 //! * Expressions: binary operators are surrounded by single spaces except `^`, which is
 //!   written tight (`x^2`) unless its left side ends with a unit (`2 m ^ 2`, since `2 m^2`
 //!   would be read as the unit `m^2`). A unit follows its number or `)` after one space.
@@ -153,21 +155,16 @@ impl Fmt {
                 self.out.push(' ');
                 self.block(body, level);
             }
-            ItemKind::If {
-                cond,
-                then,
-                otherwise,
-            } => {
-                self.out.push_str("if ");
-                write_expr(&mut self.out, cond, 0);
-                self.out.push(' ');
-                self.block(then, level);
-                if let Some(other) = otherwise {
-                    self.out.push_str(" else ");
-                    match else_if(other) {
-                        Some(nested) => self.item(nested, level),
-                        None => self.block(other, level),
-                    }
+            ItemKind::If { .. } => {
+                // A chain is printed on one line only if all its blocks fit on it;
+                // otherwise every block of the chain is printed on several lines.
+                let start = self.out.len();
+                let col = self.col();
+                self.if_chain(item, level, true);
+                let line = &self.out[start..];
+                if line.contains('\n') || col + line.chars().count() > MAX_WIDTH {
+                    self.out.truncate(start);
+                    self.if_chain(item, level, false);
                 }
             }
             ItemKind::Decl {
@@ -194,12 +191,45 @@ impl Fmt {
         }
     }
 
+    /// `if ... { } else if ... { } else { }`; with `inline` false, no block of the chain is
+    /// put on one line.
+    fn if_chain(&mut self, item: &Item, level: usize, inline: bool) {
+        let mut item = item;
+        loop {
+            let ItemKind::If {
+                cond,
+                then,
+                otherwise,
+            } = &item.kind
+            else {
+                return;
+            };
+            self.out.push_str("if ");
+            write_expr(&mut self.out, cond, 0);
+            self.out.push(' ');
+            self.block_with(then, level, inline);
+            let Some(other) = otherwise else { return };
+            self.out.push_str(" else ");
+            match else_if(other) {
+                Some(nested) => item = nested,
+                None => {
+                    self.block_with(other, level, inline);
+                    return;
+                }
+            }
+        }
+    }
+
     fn block(&mut self, block: &Block, level: usize) {
+        self.block_with(block, level, true);
+    }
+
+    fn block_with(&mut self, block: &Block, level: usize, inline: bool) {
         if block.items.is_empty() && block.trailing_comments.is_empty() {
             self.out.push_str("{}");
             return;
         }
-        if let Some(line) = inline_block(block) {
+        if let Some(line) = inline_block(block).filter(|_| inline) {
             if self.col() + line.chars().count() <= MAX_WIDTH {
                 self.out.push_str(&line);
                 return;

@@ -1692,7 +1692,15 @@ fn explain_pest_error(err: pest::error::Error<Rule>, text: &str, expr_mode: bool
         help = Some("names are made of ASCII letters, digits and `_`; operators are `+ - * / % ^ == != < <= > >= @ and or not`".into());
     } else if structural.contains(&Want::End) || structural.is_empty() {
         // The item could have ended here: something extra follows on the same line.
-        if c == Some(b'(') && !space_before && matches!(prev_kind, Some(TokKind::Word)) {
+        let glued_unit = (!space_before && matches!(c, Some(b'(' | b'[' | b'.')))
+            .then(|| unit_before(text, found_span.start))
+            .flatten()
+            .filter(|u| u.contains(['*', '/']));
+        if let Some(unit) = glued_unit {
+            help = Some(format!(
+                "`{unit}` was read as one unit because it has no spaces; a space ends a unit, so write e.g. `1 N * sin(x)` rather than `1 N*sin(x)`"
+            ));
+        } else if c == Some(b'(') && !space_before && matches!(prev_kind, Some(TokKind::Word)) {
             message = "only a plain name can be called".to_string();
             help = Some("call functions by their name, e.g. `norm(v)`; `a.b(...)` and `a[i](...)` are not calls".into());
         } else if matches!(c, Some(b'(' | b'['))

@@ -182,6 +182,11 @@ const CASES: &[(&str, &str, &str)] = &[
         "the unit exponent `99999999999` is too large",
         "99999999999",
     ),
+    (
+        "x y = 1N*sin(t)",
+        "expected `{`, a new line or `;` after `sin`, found `(`",
+        "(",
+    ),
     ("x y = a.b(c)", "only a plain name can be called", "("),
     ("x y = 2 $ 3", "unexpected character `$`", "$"),
     ("x y = 2 ° 3", "unexpected character `°`", "°"),
