@@ -1,39 +1,42 @@
-//! Tree → canonical text.
-//!
-//! # Layout rules
-//!
-//! * Two spaces of indentation per block level; one item per line; `{` on the line of its
-//!   item, `}` on its own line; an empty block without comments is `{}`.
-//! * A block is printed on one line, `{ a 1; b 2 }`, when all its items are properties, it
-//!   has no comments at all, and the whole line fits in [`MAX_WIDTH`] columns (the item's
-//!   own trailing comment is not counted).
-//! * At the top level of a file, a blank line separates two items when either of them has a
-//!   block; there are no blank lines inside blocks.
-//! * Leading comments are printed on their own lines above their item, a trailing comment
-//!   after its item, separated by one space; comments are printed verbatim.
-//! * `else if` is printed as such when the `else` block holds nothing but one `if` item
-//!   without comments; otherwise as `else { ... }`. An `if` chain is printed on one line
-//!   only if all its blocks can be and the whole chain fits in [`MAX_WIDTH`]; otherwise
-//!   every block of the chain is printed on several lines.
-//! * Expressions: binary operators are surrounded by single spaces except `^`, which is
-//!   written tight (`x^2`) unless its left side ends with a unit (`2 m ^ 2`, since `2 m^2`
-//!   would be read as the unit `m^2`). A unit follows its number or `)` after one space.
-//!   Commas are followed by one space, named arguments are written `name: value`.
-//! * Parentheses: [`ExprKind::Paren`] nodes are printed as written; beyond those, the
-//!   printer adds the fewest parentheses that make the text parse back to the same tree
-//!   (they are needed only for trees built by hand, which then parse back with extra
-//!   `Paren` nodes). Number literals keep their text (`1e-6` stays `1e-6`); units keep
-//!   their text.
-//! * Long lines are not wrapped.
+//! Tree → canonical text (see [`format`] for the layout rules).
 
 use crate::ast::*;
 
 /// The width in columns up to which a block of properties is printed on one line.
 pub const MAX_WIDTH: usize = 100;
 
-/// Formats a file in the canonical layout (see the module documentation of the crate's
-/// formatter for the rules). The result parses back to the same tree modulo spans, and
-/// formatting is idempotent.
+/// Formats a file in the canonical layout. The result parses back to the same tree modulo
+/// spans, and formatting is idempotent.
+///
+/// # Layout rules
+///
+/// * Two spaces of indentation per block level; one item per line; `{` on the line of its
+///   item, `}` on its own line; an empty block without comments is `{}`.
+/// * A block is printed on one line, `{ a 1; b 2 }`, when all its items are properties, it
+///   has no comments at all, and the whole line fits in [`MAX_WIDTH`] columns (the item's
+///   own trailing comment is not counted).
+/// * At the top level of a file, a blank line separates two items when either of them has a
+///   block; there are no blank lines inside blocks.
+/// * Leading comments are printed on their own lines above their item, a trailing comment
+///   after its item, separated by one space; comments are printed verbatim. (The parser
+///   has already moved comments written inside an item's expressions above the item.)
+///   Blank lines of the source are not kept.
+/// * `else if` is printed as such when the `else` block holds nothing but one `if` item
+///   without comments; otherwise as `else { ... }`. An `if` chain is printed on one line
+///   only if all its blocks can be and the whole chain fits in [`MAX_WIDTH`]; otherwise
+///   every block of the chain is printed on several lines.
+/// * Expressions: binary operators are surrounded by single spaces except `^`, which is
+///   written tight (`x^2`) unless its left side ends with a unit (`2 m ^ 2`, since `2 m^2`
+///   would be read as the unit `m^2`). A unit follows its number or `)` after one space.
+///   Commas are followed by one space, named arguments are written `name: value`.
+/// * Parentheses: [`ExprKind::Paren`] nodes are printed as written; beyond those, the
+///   printer adds the fewest parentheses that make the text parse back to the same tree
+///   (they are needed only for trees built by hand, which then parse back with extra
+///   `Paren` nodes). Number literals keep their text (`1e-6` stays `1e-6`); units keep
+///   their text.
+/// * Long lines are not wrapped.
+/// * For trees built by hand: a number whose `text` is not a literal is printed from its
+///   value, a unit with empty `text` from its factors (`kg*s^-2`).
 ///
 /// ```
 /// let file = mbdc_dsl::parse("model m{body b{mass 1kg}\n}").unwrap();

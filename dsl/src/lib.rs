@@ -41,6 +41,8 @@
 //! [`MAX_NESTING`] (brackets, blocks, or the height of an expression tree), so that no input
 //! can overflow the stack of the parser, the formatter or a consumer walking the tree.
 
+#![warn(missing_docs)]
+
 pub mod ast;
 mod error;
 mod format;

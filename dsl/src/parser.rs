@@ -1729,6 +1729,9 @@ fn explain_pest_error(err: pest::error::Error<Rule>, text: &str, expr_mode: bool
                 "put the `{` on the same line as the declaration it belongs to, e.g. `body rod {`"
                     .into(),
             );
+        } else if c == Some(b'.') && prev_kind == Some(TokKind::Number) {
+            help =
+                Some("write numbers with a digit after the point, e.g. `5.0`, or none: `5`".into());
         } else if c == Some(b'{') {
             help = Some("a block can only follow a declaration `KEYWORD NAME` or `KEYWORD NAME = VALUE`, or a property-free `KEYWORD`; check the words before `{`".into());
         } else if c == Some(b'=') {
@@ -1745,6 +1748,15 @@ fn explain_pest_error(err: pest::error::Error<Rule>, text: &str, expr_mode: bool
     } else if structural.contains(&Want::Expr) {
         if found_kind == TokKind::End && matches!(prev_text, "=" | "(" | "[" | ":") {
             help = Some("a line break ends an item; write the value on the same line".into());
+        } else if c == Some(b'{') && prev_text == "=" {
+            help =
+                Some("a declaration with a block has no `=` before it: `body rod { ... }`".into());
+        } else if c == Some(b'.')
+            && bytes
+                .get(found_span.start + 1)
+                .is_some_and(u8::is_ascii_digit)
+        {
+            help = Some("write numbers with a digit before the point, e.g. `0.5`".into());
         }
     } else if structural == [Want::Eq] {
         if let Some(k @ ("param" | "const")) = item_keyword(text, pos) {

@@ -211,6 +211,21 @@ const CASES: &[(&str, &str, &str)] = &[
         "2",
     ),
     ("x y = a.", "expected a name after `.`", ""),
+    (
+        "x y = .5",
+        "expected an expression after `=`, found `.`",
+        ".",
+    ),
+    (
+        "x y = 5.",
+        "expected `{`, a new line or `;` after `5`, found `.`",
+        ".",
+    ),
+    (
+        "body rod = {\n}",
+        "expected an expression after `=`, found `{`",
+        "{",
+    ),
     ("x y = a.1", "expected a name after `.`, found `1`", "1"),
 ];
 
