@@ -1,4 +1,4 @@
-//! Tree → canonical text (see [`format`] for the layout rules).
+//! Tree → canonical text (see [`format()`] for the layout rules).
 
 use crate::ast::*;
 
@@ -52,7 +52,7 @@ pub fn format(file: &File) -> String {
     f.out
 }
 
-/// Formats one expression on one line, as [`format`] would inside an item.
+/// Formats one expression on one line, as [`format()`] would inside an item.
 ///
 /// ```
 /// let e = mbdc_dsl::parse_expr("-x ^2*( a+b )").unwrap();

@@ -10,7 +10,7 @@
 //! not know what a body or a joint is, which units exist, or which properties a body takes.
 //! That is `mbdc-compiler`'s job. It never depends on `mbdc-runtime`.
 //!
-//! **API boundary.** [`parse`] (text → [`ast::File`] or [`ParseError`]s), [`format`]
+//! **API boundary.** [`parse`] (text → [`ast::File`] or [`ParseError`]s), [`format()`]
 //! ([`ast::File`] → canonical text), [`parse_expr`] (for command-line overrides),
 //! [`format_expr`] (one expression → text, for messages), [`strip_spans`] /
 //! [`strip_expr_spans`] (compare trees modulo layout). Nothing here does I/O.
