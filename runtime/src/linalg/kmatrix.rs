@@ -261,6 +261,23 @@ impl ConstraintMatrix {
         }
     }
 
+    /// Add `d[r]` to the diagonal entry of every row `r` with `active[r]` (all rows when
+    /// `active` is `None`): a per-row regularization such as the staggered method's
+    /// `E = diag(ε, …, εh, …)`. Allocation-free.
+    ///
+    /// # Panics
+    /// If `d` does not have one entry per row.
+    pub fn add_diagonal(&mut self, d: &[f64], active: Option<&[bool]>) {
+        let p = &self.pattern;
+        assert_eq!(d.len(), p.rows(), "one diagonal entry per row");
+        for (s, &ds) in d.iter().enumerate() {
+            if active.is_none_or(|act| act[s]) {
+                // The diagonal is the last entry of its column (see `KPattern`).
+                self.values[p.col_ptr[s + 1] - 1] += ds;
+            }
+        }
+    }
+
     /// Write the full symmetric matrix into `out` (`rows × rows`, overwritten).
     ///
     /// # Panics
@@ -427,6 +444,32 @@ mod tests {
             assert_eq!(d[(j, 4)], expect);
         }
         assert!(d[(3, 3)] > 0.0);
+    }
+
+    /// A per-row diagonal lands on the diagonal of active rows only.
+    #[test]
+    fn add_diagonal_on_active_rows() {
+        let layout = chain_layout(3, 3);
+        let mut rng = Rng::new(5);
+        let jac = random_jac(&mut rng, layout.rows);
+        let mut active = vec![true; 9];
+        active[2] = false;
+        let mut k = ConstraintMatrix::new(&layout);
+        k.assemble(&jac, &layout.mass, 1.0, 0.0, Some(&active));
+        let mut before = DMatrix::zeros(9, 9);
+        k.to_dense(&mut before);
+        let d: Vec<f64> = (0..9).map(|i| 0.1 * (i + 1) as f64).collect();
+        k.add_diagonal(&d, Some(&active));
+        let mut after = DMatrix::zeros(9, 9);
+        k.to_dense(&mut after);
+        let tol = 1e-14 * before.amax();
+        let diff = after - before;
+        for i in 0..9 {
+            for j in 0..9 {
+                let expect = if i == j && i != 2 { d[i] } else { 0.0 };
+                assert!((diff[(i, j)] - expect).abs() <= tol, "({i},{j})");
+            }
+        }
     }
 
     #[test]
