@@ -14,15 +14,17 @@
 //! `System` from a `Scene`), the integrators and `run` (advance a `System` and stream
 //! frames to writers), `output` (CSV and `summary.json`).
 
-pub mod scene;
-pub mod system;
-pub mod math;
-pub mod topology;
-pub mod linalg;
-pub mod output;
-pub mod fn1;
-pub mod joints;
-pub mod forces;
 pub mod contact;
 pub mod energy;
+pub mod fn1;
+pub mod forces;
+pub mod integrators;
 pub mod interp;
+pub mod joints;
+pub mod linalg;
+pub mod math;
+pub mod output;
+pub mod run;
+pub mod scene;
+pub mod system;
+pub mod topology;

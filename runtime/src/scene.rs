@@ -501,7 +501,9 @@ impl ElementKind {
     pub fn faces(self) -> &'static [&'static [usize]] {
         match self {
             ElementKind::Bar2 => &[&[0], &[1]],
-            ElementKind::Tri3PlaneStress | ElementKind::Tri3PlaneStrain => &[&[0, 1], &[1, 2], &[2, 0]],
+            ElementKind::Tri3PlaneStress | ElementKind::Tri3PlaneStrain => {
+                &[&[0, 1], &[1, 2], &[2, 0]]
+            }
             ElementKind::Quad4PlaneStress | ElementKind::Quad4PlaneStrain => {
                 &[&[0, 1], &[1, 2], &[2, 3], &[3, 0]]
             }
@@ -681,7 +683,12 @@ pub struct OutputSpec {
 
 impl Default for OutputSpec {
     fn default() -> Self {
-        OutputSpec { every: 1, bodies: true, energy: true, constraints: true }
+        OutputSpec {
+            every: 1,
+            bodies: true,
+            energy: true,
+            constraints: true,
+        }
     }
 }
 
@@ -712,7 +719,12 @@ pub enum LintForm {
 
 impl Default for StaggeredOptions {
     fn default() -> Self {
-        StaggeredOptions { epsilon: None, single_stage: false, paper_literal: false, lint: LintForm::Exact }
+        StaggeredOptions {
+            epsilon: None,
+            single_stage: false,
+            paper_literal: false,
+            lint: LintForm::Exact,
+        }
     }
 }
 
@@ -786,16 +798,23 @@ impl MethodSpec {
     pub fn default_for(name: &str) -> Option<MethodSpec> {
         Some(match name {
             "staggered" => MethodSpec::Staggered(StaggeredOptions::default()),
-            "baumgarte" => MethodSpec::Baumgarte { alpha: 10.0, beta: 10.0 },
+            "baumgarte" => MethodSpec::Baumgarte {
+                alpha: 10.0,
+                beta: 10.0,
+            },
             "penalty" => MethodSpec::Penalty { epsilon: None },
             "coordinate_partitioning" => MethodSpec::CoordinatePartitioning,
-            "implicit_trapezoid" => {
-                MethodSpec::ImplicitTrapezoid { tolerance: 1e-10, max_iterations: 20 }
-            }
-            "natural_partitioning" => {
-                MethodSpec::NaturalPartitioning { epsilon: None, tolerance: 1e-12 }
-            }
-            "state_time" => MethodSpec::StateTime { steps_per_element: 4 },
+            "implicit_trapezoid" => MethodSpec::ImplicitTrapezoid {
+                tolerance: 1e-10,
+                max_iterations: 20,
+            },
+            "natural_partitioning" => MethodSpec::NaturalPartitioning {
+                epsilon: None,
+                tolerance: 1e-12,
+            },
+            "state_time" => MethodSpec::StateTime {
+                steps_per_element: 4,
+            },
             _ => return None,
         })
     }
@@ -920,11 +939,18 @@ impl Scene {
                     e.applied_forces = true;
                     e.time_dependence |= value.iter().any(fn_time);
                 }
-                ForceKind::Spring { stiffness, damping, .. } => {
+                ForceKind::Spring {
+                    stiffness, damping, ..
+                } => {
                     e.springs |= *stiffness != 0.0;
                     e.dampers |= *damping != 0.0;
                 }
-                ForceKind::RotationalSpring { stiffness, damping, lock_angle, .. } => {
+                ForceKind::RotationalSpring {
+                    stiffness,
+                    damping,
+                    lock_angle,
+                    ..
+                } => {
                     e.springs |= *stiffness != 0.0;
                     e.dampers |= *damping != 0.0;
                     e.locks |= lock_angle.is_some();
@@ -946,7 +972,8 @@ impl Scene {
                     MeshCondition::Displacement { value, .. } => {
                         e.time_dependence |= value.iter().flatten().any(fn_time)
                     }
-                    MeshCondition::NodalLoad { value, .. } | MeshCondition::Traction { value, .. } => {
+                    MeshCondition::NodalLoad { value, .. }
+                    | MeshCondition::Traction { value, .. } => {
                         e.time_dependence |= value.iter().any(fn_time)
                     }
                     _ => {}

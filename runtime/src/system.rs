@@ -33,7 +33,11 @@ pub struct Pose {
 impl Pose {
     /// A pose from position and quaternion (normalised here).
     pub fn new(r: Vector3<f64>, q: Quaternion<f64>) -> Pose {
-        let mut p = Pose { r, q, c: Matrix3::identity() };
+        let mut p = Pose {
+            r,
+            q,
+            c: Matrix3::identity(),
+        };
         p.set_q(q);
         p
     }
@@ -55,7 +59,11 @@ impl Pose {
 
 impl Default for Pose {
     fn default() -> Self {
-        Pose { r: Vector3::zeros(), q: Quaternion::identity(), c: Matrix3::identity() }
+        Pose {
+            r: Vector3::zeros(),
+            q: Quaternion::identity(),
+            c: Matrix3::identity(),
+        }
     }
 }
 
@@ -181,11 +189,23 @@ pub struct Need {
 
 impl Need {
     /// Everything.
-    pub const ALL: Need = Need { phi: true, jac: true, gamma: true };
+    pub const ALL: Need = Need {
+        phi: true,
+        jac: true,
+        gamma: true,
+    };
     /// Values only.
-    pub const PHI: Need = Need { phi: true, jac: false, gamma: false };
+    pub const PHI: Need = Need {
+        phi: true,
+        jac: false,
+        gamma: false,
+    };
     /// Jacobian and bias only.
-    pub const JAC: Need = Need { phi: false, jac: true, gamma: false };
+    pub const JAC: Need = Need {
+        phi: false,
+        jac: true,
+        gamma: false,
+    };
 }
 
 /// Buffers filled by [`System::constraints`], one entry per row. Allocated once with
@@ -242,14 +262,26 @@ pub trait System: Sync {
 
     /// Evaluate the constraint rows at time `t`. Inactive rows (see [`Layout`]) are
     /// evaluated like the others; integrators mask them.
-    fn constraints(&self, t: f64, pose: &[Pose], twist: &[Twist], need: Need, out: &mut ConstraintEval);
+    fn constraints(
+        &self,
+        t: f64,
+        pose: &[Pose],
+        twist: &[Twist],
+        need: Need,
+        out: &mut ConstraintEval,
+    );
 
     /// Potential energy of the conservative forces (gravity, springs), J.
     fn potential_energy(&self, t: f64, pose: &[Pose]) -> f64;
 
     /// Update the activity of lock rows after a step. `active` has one entry per row.
     /// Returns the index of a joint that changed, if any. The default has no locks.
-    fn update_locks(&self, _pose: &[Pose], _twist: &[Twist], _active: &mut [bool]) -> Option<usize> {
+    fn update_locks(
+        &self,
+        _pose: &[Pose],
+        _twist: &[Twist],
+        _active: &mut [bool],
+    ) -> Option<usize> {
         None
     }
 

@@ -4,9 +4,11 @@
 //!
 //! Sign convention: `M u̇' + Bᵀλ = F` (notes A §0, C §0).
 
-use nalgebra::{DMatrix, Vector3};
+use nalgebra::Vector3;
 
-use super::dense::{KAssembler, SymSolver};
+use crate::linalg::{
+    Backend, Definiteness, KSolver, KSolverOptions, LinalgError, DEFAULT_PIVOT_TOL,
+};
 use crate::system::{ConstraintEval, Layout, MassProps, Pose, RowKind, Twist, Wrench};
 
 /// `ω × (J ω)`: the gyroscopic term `D_ω` of notes A eq. 37 (body components).
@@ -19,7 +21,10 @@ pub fn gyro(m: &MassProps, w: &Vector3<f64>) -> Vector3<f64> {
 /// gyroscopic term and the constraint forces).
 #[inline]
 pub fn accel(m: &MassProps, f: &Wrench) -> Twist {
-    Twist { v: f.f / m.m, w: m.j_inv * f.t }
+    Twist {
+        v: f.f / m.m,
+        w: m.j_inv * f.t,
+    }
 }
 
 /// `out[r] = (B u̇)_r` for every row.
@@ -56,7 +61,13 @@ pub fn b_minv(layout: &Layout, jac: &ConstraintEval, f: &[Wrench], out: &mut [f6
 
 /// `out = Bᵀλ` as per-body generalized forces (overwrites `out`). Rows with
 /// `active[r] == false` contribute nothing.
-pub fn bt_lambda(layout: &Layout, jac: &ConstraintEval, lambda: &[f64], active: &[bool], out: &mut [Wrench]) {
+pub fn bt_lambda(
+    layout: &Layout,
+    jac: &ConstraintEval,
+    lambda: &[f64],
+    active: &[bool],
+    out: &mut [Wrench],
+) {
     for w in out.iter_mut() {
         *w = Wrench::default();
     }
@@ -78,7 +89,12 @@ pub fn bt_lambda(layout: &Layout, jac: &ConstraintEval, lambda: &[f64], active: 
 
 #[inline]
 fn dot6(row: &[f64; 6], t: &Twist) -> f64 {
-    row[0] * t.v.x + row[1] * t.v.y + row[2] * t.v.z + row[3] * t.w.x + row[4] * t.w.y + row[5] * t.w.z
+    row[0] * t.v.x
+        + row[1] * t.v.y
+        + row[2] * t.v.z
+        + row[3] * t.w.x
+        + row[4] * t.w.y
+        + row[5] * t.w.z
 }
 
 #[inline]
@@ -103,7 +119,10 @@ pub fn velocity_residual(layout: &Layout, ce: &ConstraintEval, vel: &[Twist], ou
 /// the angular velocities `w_gyro` (which may come from another sequence than `F`).
 pub fn qbar(layout: &Layout, applied: &[Wrench], w_gyro: &[Twist], out: &mut [Wrench]) {
     for i in 0..layout.bodies() {
-        out[i] = Wrench { f: applied[i].f, t: applied[i].t - gyro(&layout.mass[i], &w_gyro[i].w) };
+        out[i] = Wrench {
+            f: applied[i].f,
+            t: applied[i].t - gyro(&layout.mass[i], &w_gyro[i].w),
+        };
     }
 }
 
@@ -122,31 +141,41 @@ pub fn initial_activity(layout: &Layout) -> Vec<bool> {
 
 /// Number of holonomic rows.
 pub fn holonomic_rows(layout: &Layout) -> usize {
-    layout.row_kind.iter().filter(|k| **k == RowKind::Holonomic).count()
+    layout
+        .row_kind
+        .iter()
+        .filter(|k| **k == RowKind::Holonomic)
+        .count()
 }
 
 /// Consistent (index-1) multipliers: solve `B M⁻¹ Bᵀ λ = B M⁻¹ Q̄ − γ` (notes A eq. 5).
-/// Rows that are inactive get λ = 0; numerically dependent rows get λ = 0 too (a basic
-/// solution, see [`SymSolver`]). Returns the numerical rank of the active rows.
+/// Inactive rows get λ = 0; numerically dependent rows get λ = 0 too (a basic solution of
+/// the semidefinite system, [`crate::linalg::PivotedCholesky`]).
 pub struct Index1 {
-    asm: KAssembler,
-    k: DMatrix<f64>,
+    ks: KSolver,
     rhs: Vec<f64>,
-    solver: SymSolver,
 }
 
 impl Index1 {
     /// Buffers for `layout`.
-    pub fn new(layout: &Layout) -> Index1 {
-        Index1 {
-            asm: KAssembler::new(layout),
-            k: DMatrix::zeros(layout.rows, layout.rows),
+    pub fn new(layout: &Layout) -> Result<Index1, LinalgError> {
+        let ks = KSolver::new(
+            layout,
+            KSolverOptions {
+                backend: Backend::Auto,
+                definiteness: Definiteness::SemiDefinite {
+                    tol: DEFAULT_PIVOT_TOL,
+                },
+            },
+        )?;
+        Ok(Index1 {
+            ks,
             rhs: vec![0.0; layout.rows],
-            solver: SymSolver::new(layout.rows),
-        }
+        })
     }
 
-    /// Solve for λ given the evaluated constraints (with `gamma`) and `Q̄`.
+    /// Solve for λ given the evaluated constraints (with `gamma`) and `Q̄`. Returns the
+    /// numerical rank of the active rows.
     pub fn solve(
         &mut self,
         layout: &Layout,
@@ -154,22 +183,61 @@ impl Index1 {
         qbar: &[Wrench],
         active: &[bool],
         lambda: &mut [f64],
-    ) -> usize {
-        self.asm.assemble(layout, ce, active, 1.0, &mut self.k);
+    ) -> Result<usize, LinalgError> {
+        self.ks
+            .assemble(&ce.jac, &layout.mass, 1.0, 0.0, Some(active));
         b_minv(layout, ce, qbar, &mut self.rhs);
         for r in 0..layout.rows {
-            self.rhs[r] = if active[r] { self.rhs[r] - ce.gamma[r] } else { 0.0 };
+            self.rhs[r] = if active[r] {
+                self.rhs[r] - ce.gamma[r]
+            } else {
+                0.0
+            };
         }
-        let rank = self.solver.factor_semidefinite(&self.k, 1e-12);
-        self.solver.solve(&self.rhs, lambda);
-        rank
+        let stats = self.ks.factor()?;
+        self.ks.solve_in_place(&mut self.rhs);
+        lambda.copy_from_slice(&self.rhs);
+        Ok(stats.rank)
     }
+}
+
+/// Largest diagonal entry and largest Gershgorin row sum (an upper bound of the largest
+/// eigenvalue) of the matrix assembled in `ks`, over active rows; the diagonal itself goes to
+/// `diag_out`.
+pub fn k_bounds(ks: &KSolver, active: &[bool], diag_out: &mut [f64]) -> (f64, f64) {
+    let k = ks.matrix();
+    let p = k.pattern();
+    let (cp, ri, v) = (p.col_ptr(), p.row_idx(), k.values());
+    let n = p.rows();
+    let mut diag: f64 = 0.0;
+    let mut rowsum = vec![0.0; n];
+    for s in 0..n {
+        for e in cp[s]..cp[s + 1] {
+            let r = ri[e];
+            if !active[r] || !active[s] {
+                continue;
+            }
+            if r == s {
+                diag_out[r] = v[e];
+                diag = diag.max(v[e]);
+                rowsum[r] += v[e].abs();
+            } else {
+                rowsum[r] += v[e].abs();
+                rowsum[s] += v[e].abs();
+            }
+        }
+    }
+    (diag, rowsum.into_iter().fold(0.0, f64::max))
 }
 
 /// A pose advanced by a rotation vector `phi` (body components): `q ⊗ exp(φ/2)`.
 pub fn rotate_body(p: &Pose, dr: Vector3<f64>, phi: Vector3<f64>) -> Pose {
     let a = phi.norm();
-    let (s, c) = if a > 0.0 { ((a / 2.0).sin() / a, (a / 2.0).cos()) } else { (0.5, 1.0) };
+    let (s, c) = if a > 0.0 {
+        ((a / 2.0).sin() / a, (a / 2.0).cos())
+    } else {
+        (0.5, 1.0)
+    };
     let dq = nalgebra::Quaternion::new(c, s * phi.x, s * phi.y, s * phi.z);
     Pose::new(p.r + dr, p.q * dq)
 }

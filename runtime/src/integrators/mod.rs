@@ -10,13 +10,15 @@
 //! All integrators are generic over the system, so generated code is monomorphized
 //! into them, and none allocates inside [`Integrator::step`].
 
+// Numerical kernels index several parallel arrays (rows, bodies) with one counter.
+#![allow(clippy::needless_range_loop)]
+
 pub mod common;
-mod dense;
 pub mod partitioning;
 pub mod staggered;
-pub mod trapezoid;
 #[cfg(test)]
 pub(crate) mod testsys;
+pub mod trapezoid;
 
 use crate::system::{Pose, System, Twist};
 
@@ -66,13 +68,22 @@ pub fn make<'a, S: System + 'a>(
 ) -> Result<Box<dyn Integrator<S> + 'a>, StartError> {
     use crate::scene::MethodSpec as M;
     Ok(match method {
-        M::Staggered(o) => Box::new(staggered::TwoStage::staggered(sys, h, o, start)),
-        M::Baumgarte { alpha, beta } => Box::new(staggered::TwoStage::baumgarte(sys, h, *alpha, *beta, start)),
-        M::Penalty { epsilon } => Box::new(staggered::TwoStage::penalty(sys, h, *epsilon, start)),
-        M::CoordinatePartitioning => Box::new(partitioning::Partitioning::new(sys, h, start).map_err(StartError::Step)?),
-        M::ImplicitTrapezoid { tolerance, max_iterations } => {
-            Box::new(trapezoid::Trapezoid::new(sys, h, *tolerance, *max_iterations, start))
-        }
+        M::Staggered(o) => Box::new(staggered::TwoStage::staggered(sys, h, o, start)?),
+        M::Baumgarte { alpha, beta } => Box::new(staggered::TwoStage::baumgarte(
+            sys, h, *alpha, *beta, start,
+        )?),
+        M::Penalty { epsilon } => Box::new(staggered::TwoStage::penalty(sys, h, *epsilon, start)?),
+        M::CoordinatePartitioning => Box::new(partitioning::Partitioning::new(sys, h, start)?),
+        M::ImplicitTrapezoid {
+            tolerance,
+            max_iterations,
+        } => Box::new(trapezoid::Trapezoid::new(
+            sys,
+            h,
+            *tolerance,
+            *max_iterations,
+            start,
+        )?),
         M::NaturalPartitioning { .. } | M::StateTime { .. } => {
             return Err(StartError::Unsupported(method.name()))
         }
@@ -88,6 +99,9 @@ pub enum StartError {
     /// The initial state could not be processed.
     #[error(transparent)]
     Step(#[from] StepError),
+    /// A linear solver could not be set up.
+    #[error("linear solver: {0}")]
+    Linalg(#[from] crate::linalg::LinalgError),
 }
 
 /// What went wrong in a step.
@@ -100,6 +114,14 @@ pub enum StepError {
         what: &'static str,
         /// Row (constraint row or unknown index) where the factorization failed.
         row: usize,
+    },
+    /// A linear solve failed for another reason (non-finite entries).
+    #[error("{what}: {message}")]
+    Linalg {
+        /// Which system.
+        what: &'static str,
+        /// The solver's message.
+        message: String,
     },
     /// An iteration did not converge.
     #[error("{what} did not converge in {iterations} iterations (residual {residual:.3e})")]

@@ -22,8 +22,8 @@
 use nalgebra::{DMatrix, Vector3};
 
 use super::common::{self, qbar};
-use super::dense::Lu;
-use super::{Integrator, State, StepError, StepInfo};
+use super::{Integrator, StartError, State, StepError, StepInfo};
+use crate::linalg::DenseLu as Lu;
 use crate::math::cayley_update;
 use crate::system::{ConstraintEval, Layout, Need, Pose, RowKind, System, Twist, Wrench};
 
@@ -59,7 +59,6 @@ pub struct Partitioning {
     mz: DMatrix<f64>,
     mred: DMatrix<f64>,
     lu_red: Lu,
-    lu_t: Lu,
     vhalf: Vec<Twist>,
     xv: Vec<f64>,
     yv: Vec<f64>,
@@ -88,7 +87,7 @@ fn set(t: &mut Twist, c: usize, v: f64) {
 
 impl Partitioning {
     /// Start from the system's initial state.
-    pub fn new<S: System>(sys: &S, h: f64, start: &State) -> Result<Partitioning, StepError> {
+    pub fn new<S: System>(sys: &S, h: f64, start: &State) -> Result<Partitioning, StartError> {
         let layout = sys.layout();
         let (nb, m) = (layout.bodies(), layout.rows);
         let (t0, pose, vel) = (start.t, start.pose.clone(), start.twist.clone());
@@ -122,7 +121,6 @@ impl Partitioning {
             mz: DMatrix::zeros(n, n),
             mred: DMatrix::zeros(n, n),
             lu_red: Lu::new(0),
-            lu_t: Lu::new(0),
             vhalf: vec![Twist::default(); nb],
             xv: vec![0.0; n.max(m)],
             yv: vec![0.0; n.max(m)],
@@ -192,7 +190,10 @@ impl Partitioning {
             }
             largest = largest.max(best.0);
             if best.1 == usize::MAX || best.0 <= 1e-12 * largest.max(1e-300) {
-                return Err(StepError::Singular { what: "coordinate partitioning (B has dependent rows)", row: self.rows[k] });
+                return Err(StepError::Singular {
+                    what: "coordinate partitioning (B has dependent rows)",
+                    row: self.rows[k],
+                });
             }
             smallest = smallest.min(best.0);
             let c = best.1;
@@ -214,7 +215,11 @@ impl Partitioning {
                 self.ind.push(c);
             }
         }
-        self.pivot_at_choice = smallest / largest.max(1e-300);
+        self.pivot_at_choice = if ma == 0 {
+            1.0
+        } else {
+            smallest / largest.max(1e-300)
+        };
         self.partitions += 1;
         let ni = self.ind.len();
         self.bd = DMatrix::zeros(ma, ma);
@@ -225,7 +230,6 @@ impl Partitioning {
         self.mz = DMatrix::zeros(n, ni);
         self.mred = DMatrix::zeros(ni, ni);
         self.lu_red = Lu::new(ni);
-        self.lu_t = Lu::new(ma);
         Ok(())
     }
 
@@ -238,8 +242,13 @@ impl Partitioning {
                     self.bd[(k, j)] = self.b[(k, c)];
                 }
             }
-            let ok = self.lu_d.factor(&self.bd).is_ok();
-            let ratio = if ok { self.min_pivot_ratio() } else { 0.0 };
+            if ma == 0 {
+                return Ok(());
+            }
+            let (ok, ratio) = match self.lu_d.factor(&self.bd) {
+                Ok(st) => (true, st.pivot_ratio()),
+                Err(_) => (false, 0.0),
+            };
             if ok && ratio >= 0.1 * self.pivot_at_choice {
                 return Ok(());
             }
@@ -247,24 +256,11 @@ impl Partitioning {
                 self.partition(sys)?;
             }
         }
-        Err(StepError::Singular { what: "coordinate partitioning B_d", row: 0 })
+        Err(StepError::Singular {
+            what: "coordinate partitioning B_d",
+            row: 0,
+        })
     }
-
-    fn min_pivot_ratio(&self) -> f64 {
-        let ma = self.rows.len();
-        if ma == 0 {
-            return 1.0;
-        }
-        let mut lo = f64::INFINITY;
-        let mut hi: f64 = 0.0;
-        for k in 0..ma {
-            let d = self.lu_d.diag(k).abs();
-            lo = lo.min(d);
-            hi = hi.max(d);
-        }
-        lo / hi.max(1e-300)
-    }
-
 
     /// Accelerations (and λ) at the current state from the reduced equations.
     fn accelerations<S: System>(&mut self, sys: &S, t: f64) -> Result<(), StepError> {
@@ -281,7 +277,7 @@ impl Partitioning {
             for k in 0..ma {
                 self.xv[k] = self.b[(k, c)];
             }
-            self.lu_d.solve(&mut self.xv[..ma]);
+            self.lu_d.solve_in_place(&mut self.xv[..ma]);
             for k in 0..ma {
                 self.t_mat[(k, j)] = self.xv[k];
             }
@@ -290,7 +286,7 @@ impl Partitioning {
         for (k, &r) in self.rows.iter().enumerate() {
             self.yv[k] = self.ce.gamma[r];
         }
-        self.lu_d.solve(&mut self.yv[..ma]);
+        self.lu_d.solve_in_place(&mut self.yv[..ma]);
         // M Z column j: Z_j has −T[:, j] on dependent columns and 1 on ind[j]
         self.mz.fill(0.0);
         for j in 0..ni {
@@ -346,8 +342,13 @@ impl Partitioning {
             }
             self.xv[a] = za(&self.rhs, &self.t_mat, &self.dep, &self.ind);
         }
-        self.lu_red.factor(&self.mred).map_err(|row| StepError::Singular { what: "reduced mass matrix", row })?;
-        self.lu_red.solve(&mut self.xv[..ni]);
+        self.lu_red
+            .factor(&self.mred)
+            .map_err(|_| StepError::Singular {
+                what: "reduced mass matrix",
+                row: 0,
+            })?;
+        self.lu_red.solve_in_place(&mut self.xv[..ni]);
         // ü = Z ü_i + ü_p
         for i in 0..nb {
             self.acc[i] = Twist::default();
@@ -367,17 +368,15 @@ impl Partitioning {
             let i = c / 6;
             let mp = &layout.mass[i];
             let jw = mp.j * self.acc[i].w;
-            let v = if c % 6 < 3 { self.q[i].f[c % 6] - mp.m * self.acc[i].v[c % 6] } else { self.q[i].t[c % 6 - 3] - jw[c % 6 - 3] };
+            let v = if c % 6 < 3 {
+                self.q[i].f[c % 6] - mp.m * self.acc[i].v[c % 6]
+            } else {
+                self.q[i].t[c % 6 - 3] - jw[c % 6 - 3]
+            };
             self.yv[k] = v;
         }
-        // solve B_dᵀ y = rhs: factor the transpose
-        for k in 0..ma {
-            for (j, &c) in self.dep.iter().enumerate() {
-                self.bd[(j, k)] = self.b[(k, c)];
-            }
-        }
-        self.lu_t.factor(&self.bd).map_err(|row| StepError::Singular { what: "B_dᵀ", row })?;
-        self.lu_t.solve(&mut self.yv[..ma]);
+        // solve B_dᵀ y = rhs with the factorization of B_d
+        self.lu_d.solve_transpose_in_place(&mut self.yv[..ma]);
         self.lambda.iter_mut().for_each(|l| *l = 0.0);
         for (k, &r) in self.rows.iter().enumerate() {
             self.lambda[r] = self.yv[k];
@@ -393,7 +392,17 @@ impl Partitioning {
             return Ok(0);
         }
         for it in 0..MAX_NEWTON {
-            sys.constraints(t, &self.pose, &self.vel, Need { phi: true, jac: true, gamma: false }, &mut self.ce);
+            sys.constraints(
+                t,
+                &self.pose,
+                &self.vel,
+                Need {
+                    phi: true,
+                    jac: true,
+                    gamma: false,
+                },
+                &mut self.ce,
+            );
             let mut worst: f64 = 0.0;
             for (k, &r) in self.rows[..hol].iter().enumerate() {
                 self.xv[k] = -self.ce.phi[r];
@@ -408,8 +417,13 @@ impl Partitioning {
                     self.bh[(k, j)] = self.b[(k, self.dep[j])];
                 }
             }
-            self.lu_h.factor(&self.bh).map_err(|row| StepError::Singular { what: "coordinate partitioning position projection", row })?;
-            self.lu_h.solve(&mut self.xv[..hol]);
+            self.lu_h
+                .factor(&self.bh)
+                .map_err(|_| StepError::Singular {
+                    what: "coordinate partitioning position projection",
+                    row: 0,
+                })?;
+            self.lu_h.solve_in_place(&mut self.xv[..hol]);
             for j in 0..hol {
                 let c = self.dep[j];
                 let i = c / 6;
@@ -423,7 +437,11 @@ impl Partitioning {
                 }
             }
         }
-        Err(StepError::NoConvergence { what: "coordinate partitioning position projection", iterations: MAX_NEWTON, residual: f64::NAN })
+        Err(StepError::NoConvergence {
+            what: "coordinate partitioning position projection",
+            iterations: MAX_NEWTON,
+            residual: f64::NAN,
+        })
     }
 
     /// Dependent velocities from `B_d u̇_d = −(B_i u̇_i + b)`.
@@ -440,7 +458,7 @@ impl Partitioning {
             }
             self.xv[k] = -s;
         }
-        self.lu_d.solve(&mut self.xv[..ma]);
+        self.lu_d.solve_in_place(&mut self.xv[..ma]);
         for (k, &c) in self.dep.iter().enumerate() {
             set(&mut self.vel[c / 6], c % 6, self.xv[k]);
         }
@@ -483,14 +501,20 @@ impl<S: System> Integrator<S> for Partitioning {
         for _ in 0..3 {
             for i in 0..nb {
                 let (a, v) = (self.acc[i], self.vhalf[i]);
-                self.vel[i] = Twist { v: v.v + a.v * (h / 2.0), w: v.w + a.w * (h / 2.0) };
+                self.vel[i] = Twist {
+                    v: v.v + a.v * (h / 2.0),
+                    w: v.w + a.w * (h / 2.0),
+                };
             }
             self.project_velocities(sys, t1)?;
             self.accelerations(sys, t1)?;
         }
         self.t = t1;
         self.next_active.copy_from_slice(&self.active);
-        if sys.update_locks(&self.pose, &self.vel, &mut self.next_active).is_some() {
+        if sys
+            .update_locks(&self.pose, &self.vel, &mut self.next_active)
+            .is_some()
+        {
             self.active.copy_from_slice(&self.next_active);
             self.partition(sys)?;
         }
@@ -509,7 +533,10 @@ impl<S: System> Integrator<S> for Partitioning {
     }
 
     fn stats(&self) -> Vec<(&'static str, f64)> {
-        vec![("partitions", self.partitions as f64), ("projection_iterations", self.newton_iterations as f64)]
+        vec![
+            ("partitions", self.partitions as f64),
+            ("projection_iterations", self.newton_iterations as f64),
+        ]
     }
 }
 
@@ -525,7 +552,9 @@ mod tests {
         let mut st = State::new(1, 3);
         let e = |st: &State| {
             let m = &sys.layout.mass[0];
-            0.5 * m.m * st.twist[0].v.norm_squared() + 0.5 * st.twist[0].w.dot(&(m.j * st.twist[0].w)) + sys.potential_energy(0.0, &st.pose)
+            0.5 * m.m * st.twist[0].v.norm_squared()
+                + 0.5 * st.twist[0].w.dot(&(m.j * st.twist[0].w))
+                + sys.potential_energy(0.0, &st.pose)
         };
         Integrator::<RodPendulum>::state(&it, &sys, &mut st);
         let e0 = e(&st);
@@ -536,7 +565,10 @@ mod tests {
             we = we.max((e(&st) - e0).abs());
             wp = wp.max((st.pose[0].r + st.pose[0].c * Vector3::new(0.0, 0.0, 0.5)).norm());
         }
-        eprintln!("coordinate partitioning: max |ΔE| = {we:e}, max |Φ| = {wp:e}, partitions {}", it.partitions);
+        eprintln!(
+            "coordinate partitioning: max |ΔE| = {we:e}, max |Φ| = {wp:e}, partitions {}",
+            it.partitions
+        );
         assert!(wp < 1e-10);
         assert!(we < 1e-3);
     }

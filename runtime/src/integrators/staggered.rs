@@ -44,10 +44,13 @@
 //! docs/methods.md).
 //!
 //! ## ε
-//! Default rule: `ε = 10⁻⁹ · h² · max diag(B M⁻¹ Bᵀ)` at t = 0. The condition number of
-//! `εI + h²K` is then at most about 10⁹ however ill-conditioned `K` becomes — the paper's rule
-//! `ε ∼ c / cond(BM⁻¹Bᵀ)` with the accuracy c expressed relative to the step — while the
-//! constraint error `ε Δλ` of well-conditioned constraints stays at round-off.
+//! Default rule: a per-row regularization `E_r = 10⁻⁹ · h² · K_rr` (K = B M⁻¹ Bᵀ at the
+//! start), i.e. `10⁻⁹ I` added to the Jacobi-scaled matrix. The condition number of
+//! `E + h²K` is then at most about 10⁹ however ill-conditioned `K` becomes — the paper's rule
+//! `ε ∼ c / cond(BM⁻¹Bᵀ)` with the desired accuracy c = 10⁻⁹ expressed relative to the step
+//! and to each row's own scale — while the constraint error `E_r Δλ_r` stays at round-off for
+//! every row, light or heavy, translational or rotational. A scalar ε given by the user is
+//! used as is (`E = ε` on holonomic rows, `εh` on nonholonomic ones).
 //!
 //! ## Baumgarte and penalty
 //! `baumgarte`: `B M⁻¹ Bᵀ λ = B M⁻¹ Q̄ − γ + 2α Φ̇ + β² Φ` (`Φ̈ + 2αΦ̇ + β²Φ = 0`; nonholonomic
@@ -59,11 +62,9 @@
 //! λ⁰ is the consistent index-1 multiplier (`K λ = B M⁻¹ Q̄ − γ`). Sequence B starts with
 //! velocities `u̇⁰ − (h/2)u̇'⁰`, sequence A with positions at h/2 from a second-order Taylor step.
 
-use nalgebra::DMatrix;
-
 use super::common::{self, accel, b_minv, b_times, bt_lambda, qbar, Index1};
-use super::dense::{KAssembler, SymSolver};
-use super::{Integrator, State, StepError, StepInfo};
+use super::{Integrator, StartError, State, StepError, StepInfo};
+use crate::linalg::{Backend, Definiteness, KSolver, KSolverOptions, LinalgError};
 use crate::math::cayley_update;
 use crate::scene::{LintForm, StaggeredOptions};
 use crate::system::{ConstraintEval, Need, Pose, RowKind, System, Twist, Wrench};
@@ -118,9 +119,7 @@ pub struct TwoStage {
     tmp: Vec<f64>,
     res: Vec<f64>,
     dl: Vec<f64>,
-    k: DMatrix<f64>,
-    asm: KAssembler,
-    solver: SymSolver,
+    ks: KSolver,
     /// Tolerance on position residuals (m or rad).
     tol: f64,
     // statistics
@@ -134,19 +133,62 @@ const MAX_NEWTON: u32 = 25;
 
 impl TwoStage {
     /// The staggered explicit–implicit method.
-    pub fn staggered<S: System>(sys: &S, h: f64, opts: &StaggeredOptions, start: &State) -> TwoStage {
+    pub fn staggered<S: System>(
+        sys: &S,
+        h: f64,
+        opts: &StaggeredOptions,
+        start: &State,
+    ) -> Result<TwoStage, StartError> {
         let law = Law::Staggered { lint: opts.lint };
-        TwoStage::new(sys, h, law, "staggered", opts.epsilon, opts.single_stage, opts.paper_literal, start)
+        TwoStage::new(
+            sys,
+            h,
+            law,
+            "staggered",
+            opts.epsilon,
+            opts.single_stage,
+            opts.paper_literal,
+            start,
+        )
     }
 
     /// Baumgarte's stabilization on the same coordinate integrator.
-    pub fn baumgarte<S: System>(sys: &S, h: f64, alpha: f64, beta: f64, start: &State) -> TwoStage {
-        TwoStage::new(sys, h, Law::Baumgarte { alpha, beta }, "baumgarte", None, false, false, start)
+    pub fn baumgarte<S: System>(
+        sys: &S,
+        h: f64,
+        alpha: f64,
+        beta: f64,
+        start: &State,
+    ) -> Result<TwoStage, StartError> {
+        TwoStage::new(
+            sys,
+            h,
+            Law::Baumgarte { alpha, beta },
+            "baumgarte",
+            None,
+            false,
+            false,
+            start,
+        )
     }
 
     /// The penalty method on the same coordinate integrator.
-    pub fn penalty<S: System>(sys: &S, h: f64, epsilon: Option<f64>, start: &State) -> TwoStage {
-        TwoStage::new(sys, h, Law::Penalty, "penalty", epsilon, false, false, start)
+    pub fn penalty<S: System>(
+        sys: &S,
+        h: f64,
+        epsilon: Option<f64>,
+        start: &State,
+    ) -> Result<TwoStage, StartError> {
+        TwoStage::new(
+            sys,
+            h,
+            Law::Penalty,
+            "penalty",
+            epsilon,
+            false,
+            false,
+            start,
+        )
     }
 
     #[allow(clippy::too_many_arguments)]
@@ -159,7 +201,7 @@ impl TwoStage {
         single_stage: bool,
         paper_literal: bool,
         start: &State,
-    ) -> TwoStage {
+    ) -> Result<TwoStage, StartError> {
         let layout = sys.layout();
         let (nb, m) = (layout.bodies(), layout.rows);
         let (t0, pose, vel) = (start.t, start.pose.clone(), start.twist.clone());
@@ -173,28 +215,70 @@ impl TwoStage {
         let mut q0 = vec![Wrench::default(); nb];
         qbar(layout, &applied, &vel, &mut q0);
         let mut lambda = vec![0.0; m];
-        Index1::new(layout).solve(layout, &ce, &q0, &active, &mut lambda);
+        Index1::new(layout)?.solve(layout, &ce, &q0, &active, &mut lambda)?;
         let mut flam = vec![Wrench::default(); nb];
         bt_lambda(layout, &ce, &lambda, &active, &mut flam);
 
-        let mut asm = KAssembler::new(layout);
-        let mut k = DMatrix::zeros(m, m);
-        asm.assemble(layout, &ce, &active, 1.0, &mut k);
-        let kmax = (0..m).filter(|&r| active[r]).map(|r| k[(r, r)]).fold(0.0, f64::max);
-        let default_eps = match law {
-            Law::Penalty => h * h * kmax,
-            _ => 1e-9 * h * h * kmax,
+        let mut ks = KSolver::new(
+            layout,
+            KSolverOptions {
+                backend: Backend::Auto,
+                definiteness: Definiteness::Positive,
+            },
+        )?;
+        ks.assemble(&ce.jac, &layout.mass, 1.0, 0.0, Some(&active));
+        let mut kd = vec![0.0; m];
+        let (kdiag, kmax) = common::k_bounds(&ks, &active, &mut kd);
+        // Regularization per row. Given ε: E = ε on holonomic rows, εh on nonholonomic ones
+        // (their equation is scaled by h). Default: E_r = 10⁻⁹·h²·K_rr, i.e. 10⁻⁹ I on the
+        // Jacobi-scaled matrix, which bounds cond(E + h²K) by about 10⁹ whatever K does.
+        let rho = 1e-9;
+        let (epsilon, e): (f64, Vec<f64>) = match (&law, epsilon) {
+            (Law::Penalty, eps) => {
+                // the penalty frequency √(λ_max(K)/ε)·h stays at 1, below the limit 2
+                let eps = eps.unwrap_or((h * h * kmax).max(f64::MIN_POSITIVE));
+                (eps, vec![eps; m])
+            }
+            (_, Some(eps)) => (
+                eps,
+                (0..m)
+                    .map(|r| {
+                        if layout.row_kind[r] == RowKind::Holonomic {
+                            eps
+                        } else {
+                            eps * h
+                        }
+                    })
+                    .collect(),
+            ),
+            (_, None) => {
+                let floor = rho * h * h * kdiag * f64::EPSILON;
+                let e: Vec<f64> = kd
+                    .iter()
+                    .map(|k| (rho * h * h * k).max(floor).max(f64::MIN_POSITIVE))
+                    .collect();
+                // the ε reported is that of the largest holonomic row
+                let eps = (0..m)
+                    .filter(|&r| layout.row_kind[r] == RowKind::Holonomic)
+                    .map(|r| e[r])
+                    .fold(0.0, f64::max);
+                (eps, e)
+            }
         };
-        let epsilon = epsilon.unwrap_or(default_eps.max(f64::MIN_POSITIVE));
-        let e = (0..m)
-            .map(|r| if layout.row_kind[r] == RowKind::Holonomic { epsilon } else { epsilon * h })
-            .collect();
-
-        let mut seq_b = Seq { pose: pose.clone(), vel: vel.clone() };
-        let mut seq_a = Seq { pose: pose.clone(), vel: vel.clone() };
+        let mut seq_b = Seq {
+            pose: pose.clone(),
+            vel: vel.clone(),
+        };
+        let mut seq_a = Seq {
+            pose: pose.clone(),
+            vel: vel.clone(),
+        };
         let mut scale: f64 = 1.0;
         for i in 0..nb {
-            let net = Wrench { f: q0[i].f - flam[i].f, t: q0[i].t - flam[i].t };
+            let net = Wrench {
+                f: q0[i].f - flam[i].f,
+                t: q0[i].t - flam[i].t,
+            };
             let a = accel(&layout.mass[i], &net);
             seq_b.vel[i].v = vel[i].v - a.v * (h / 2.0);
             seq_b.vel[i].w = vel[i].w - a.w * (h / 2.0);
@@ -234,9 +318,7 @@ impl TwoStage {
             tmp: vec![0.0; m],
             res: vec![0.0; m],
             dl: vec![0.0; m],
-            k,
-            asm,
-            solver: SymSolver::new(m),
+            ks,
             tol: 1e-13 * scale,
             iterations: 0,
             lints: 0,
@@ -244,7 +326,7 @@ impl TwoStage {
             min_pivot_ratio: f64::INFINITY,
         };
         s.lambda_prev.copy_from_slice(&s.lambda);
-        s
+        Ok(s)
     }
 
     /// The ε in use (m/N for position rows; for nonholonomic rows (m/s)/N).
@@ -263,16 +345,47 @@ impl TwoStage {
     }
 
     /// Advance `src` by h with the current `qbar` and `flam` into `dst`.
-    fn cint(layout: &crate::system::Layout, h: f64, literal: bool, qbar: &[Wrench], flam: &[Wrench], src: &Seq, dst: &mut Seq) {
+    fn cint(
+        layout: &crate::system::Layout,
+        h: f64,
+        literal: bool,
+        qbar: &[Wrench],
+        flam: &[Wrench],
+        src: &Seq,
+        dst: &mut Seq,
+    ) {
         for i in 0..layout.bodies() {
-            (dst.pose[i], dst.vel[i]) = cint_body(&layout.mass[i], h, literal, &qbar[i], &flam[i], &src.pose[i], &src.vel[i]);
+            (dst.pose[i], dst.vel[i]) = cint_body(
+                &layout.mass[i],
+                h,
+                literal,
+                &qbar[i],
+                &flam[i],
+                &src.pose[i],
+                &src.vel[i],
+            );
         }
     }
 
     /// Advance `seq` by h in place.
-    fn cint_in_place(layout: &crate::system::Layout, h: f64, literal: bool, qbar: &[Wrench], flam: &[Wrench], seq: &mut Seq) {
+    fn cint_in_place(
+        layout: &crate::system::Layout,
+        h: f64,
+        literal: bool,
+        qbar: &[Wrench],
+        flam: &[Wrench],
+        seq: &mut Seq,
+    ) {
         for i in 0..layout.bodies() {
-            (seq.pose[i], seq.vel[i]) = cint_body(&layout.mass[i], h, literal, &qbar[i], &flam[i], &seq.pose[i], &seq.vel[i]);
+            (seq.pose[i], seq.vel[i]) = cint_body(
+                &layout.mass[i],
+                h,
+                literal,
+                &qbar[i],
+                &flam[i],
+                &seq.pose[i],
+                &seq.vel[i],
+            );
         }
     }
 
@@ -282,20 +395,42 @@ impl TwoStage {
         let layout = sys.layout();
         let h = self.h;
         let m = layout.rows;
-        self.asm.assemble(layout, &self.ce, &self.active, h * h, &mut self.k);
-        for r in 0..m {
-            if self.active[r] {
-                self.k[(r, r)] += self.e[r];
-            }
-        }
-        self.factor(layout.rows, "LINT (εI + h²BM⁻¹Bᵀ)")?;
+        // The Newton matrix: ∂Φ(X(τ+h))/∂λ ≈ −h² B(τ+h) M⁻¹ B(τ)ᵀ, approximated by the
+        // symmetric −h² B(τ) M⁻¹ B(τ)ᵀ (the force direction B(τ)ᵀ is exact). The difference
+        // is O(hω) and antisymmetric; it slows the iteration when inertias differ by orders
+        // of magnitude (a slender rod's axial inertia): ~6 iterations on the slider-crank,
+        // 2–3 on ordinary scenes.
+        self.ks
+            .assemble(&self.ce.jac, &layout.mass, h * h, 0.0, Some(&self.active));
+        self.ks.add_diagonal(&self.e, Some(&self.active));
+        self.factor("LINT (εI + h²BM⁻¹Bᵀ)")?;
         let t_end = self.tau + h;
         for it in 0..MAX_NEWTON {
             bt_lambda(layout, &self.ce, &self.lambda, &self.active, &mut self.flam);
-            let trial = std::mem::replace(&mut self.trial, Seq { pose: Vec::new(), vel: Vec::new() });
+            let trial = std::mem::replace(
+                &mut self.trial,
+                Seq {
+                    pose: Vec::new(),
+                    vel: Vec::new(),
+                },
+            );
             let mut trial = trial;
-            Self::cint(layout, h, self.paper_literal, &self.qbar, &self.flam, &self.seq[x], &mut trial);
-            sys.constraints(t_end, &trial.pose, &trial.vel, Need::PHI, &mut self.ce_trial);
+            Self::cint(
+                layout,
+                h,
+                self.paper_literal,
+                &self.qbar,
+                &self.flam,
+                &self.seq[x],
+                &mut trial,
+            );
+            sys.constraints(
+                t_end,
+                &trial.pose,
+                &trial.vel,
+                Need::PHI,
+                &mut self.ce_trial,
+            );
             // nonholonomic rows: average of the residual at the start and end positions
             b_times(layout, &self.ce, &trial.vel, &mut self.tmp);
             self.trial = trial;
@@ -316,16 +451,26 @@ impl TwoStage {
             if worst <= self.tol {
                 return Ok(it);
             }
-            self.solver.solve(&self.res, &mut self.dl);
+            self.dl.copy_from_slice(&self.res);
+            self.ks.solve_in_place(&mut self.dl);
             for r in 0..m {
                 self.lambda[r] += self.dl[r];
             }
         }
-        Err(StepError::NoConvergence { what: "staggered LINT Newton iteration", iterations: MAX_NEWTON, residual: self.res.iter().fold(0.0, |a: f64, b| a.max(b.abs())) })
+        Err(StepError::NoConvergence {
+            what: "staggered LINT Newton iteration",
+            iterations: MAX_NEWTON,
+            residual: self.res.iter().fold(0.0, |a: f64, b| a.max(b.abs())),
+        })
     }
 
     /// The paper's midpoint LINT (C3 eq. 34) for sequence `x`.
-    fn lint_midpoint<S: System>(&mut self, sys: &S, x: usize, lam_step: f64) -> Result<(), StepError> {
+    fn lint_midpoint<S: System>(
+        &mut self,
+        sys: &S,
+        x: usize,
+        lam_step: f64,
+    ) -> Result<(), StepError> {
         let layout = sys.layout();
         let m = layout.rows;
         let delta = self.h / 2.0;
@@ -342,36 +487,65 @@ impl TwoStage {
             };
         }
         let rhs_factor = midpoint_rhs_factor(lam_step, self.paper_literal);
-        let e_mid = |e: f64, kind: RowKind| if kind == RowKind::Holonomic { e } else { e / self.h * delta };
-        self.asm.assemble(layout, &self.ce, &self.active, lam_step / 2.0 * delta, &mut self.k);
+        let e_mid = |e: f64, kind: RowKind| {
+            if kind == RowKind::Holonomic {
+                e
+            } else {
+                e / self.h * delta
+            }
+        };
+        self.ks.assemble(
+            &self.ce.jac,
+            &layout.mass,
+            lam_step / 2.0 * delta,
+            0.0,
+            Some(&self.active),
+        );
+        for r in 0..m {
+            self.dl[r] = e_mid(self.e[r], layout.row_kind[r]);
+        }
+        self.ks.add_diagonal(&self.dl, Some(&self.active));
         for r in 0..m {
             if !self.active[r] {
                 self.tmp[r] = 0.0;
                 continue;
             }
             let e = e_mid(self.e[r], layout.row_kind[r]);
-            self.k[(r, r)] += e;
             if self.fresh[r] {
                 self.r_prev[r] = self.res[r];
                 self.fresh[r] = false;
             }
             self.tmp[r] = e * self.lambda[r] + rhs_factor * (self.r_prev[r] + self.res[r]);
         }
-        self.factor(m, "LINT (εI + h²/8·BM⁻¹Bᵀ)")?;
-        self.solver.solve(&self.tmp, &mut self.dl);
+        self.factor("LINT (εI + h²/8·BM⁻¹Bᵀ)")?;
+        self.dl.copy_from_slice(&self.tmp);
+        self.ks.solve_in_place(&mut self.dl);
         for r in 0..m {
-            self.lambda[r] = if self.active[r] { 2.0 * self.dl[r] - self.lambda[r] } else { 0.0 };
+            self.lambda[r] = if self.active[r] {
+                2.0 * self.dl[r] - self.lambda[r]
+            } else {
+                0.0
+            };
         }
         self.r_prev.copy_from_slice(&self.res);
         Ok(())
     }
 
-    /// Baumgarte's index-1 multipliers for sequence `x` (velocities of `y` at τ).
-    fn lint_baumgarte<S: System>(&mut self, sys: &S, y: usize, alpha: f64, beta: f64) -> Result<(), StepError> {
+    /// Baumgarte's index-1 multipliers for sequence `x`. The rate feedback `2αΦ̇` is a
+    /// damping term, so it uses X's own lagged velocity (the synchronous velocity of the
+    /// other sequence makes the leapfrog unstable for it, notes A §1.9); γ is gyroscopic in
+    /// nature and uses the synchronous one (through `self.ce`).
+    fn lint_baumgarte<S: System>(
+        &mut self,
+        sys: &S,
+        x: usize,
+        alpha: f64,
+        beta: f64,
+    ) -> Result<(), StepError> {
         let layout = sys.layout();
         let m = layout.rows;
         b_minv(layout, &self.ce, &self.qbar, &mut self.res);
-        b_times(layout, &self.ce, &self.seq[y].vel, &mut self.tmp);
+        b_times(layout, &self.ce, &self.seq[x].vel, &mut self.tmp);
         for r in 0..m {
             if !self.active[r] {
                 self.res[r] = 0.0;
@@ -382,48 +556,84 @@ impl TwoStage {
                 + if layout.row_kind[r] == RowKind::Holonomic {
                     2.0 * alpha * rate + beta * beta * self.ce.phi[r]
                 } else {
-                    2.0 * alpha * self.ce.phi[r]
+                    2.0 * alpha * rate
                 };
         }
-        self.asm.assemble(layout, &self.ce, &self.active, 1.0, &mut self.k);
-        self.factor(m, "Baumgarte (BM⁻¹Bᵀ)")?;
-        self.solver.solve(&self.res, &mut self.lambda);
+        self.ks
+            .assemble(&self.ce.jac, &layout.mass, 1.0, 0.0, Some(&self.active));
+        self.factor("Baumgarte (BM⁻¹Bᵀ)")?;
+        self.lambda.copy_from_slice(&self.res);
+        self.ks.solve_in_place(&mut self.lambda);
         Ok(())
     }
 
-    /// Cholesky of `self.k`; a pivot below 1e-14 of the largest is a singular matrix.
-    fn factor(&mut self, rows: usize, what: &'static str) -> Result<(), StepError> {
-        let rank = self.solver.factor_semidefinite(&self.k, 1e-14);
-        if rank < rows {
-            return Err(StepError::Singular { what, row: rank });
+    /// Cholesky of the assembled matrix; a non-positive pivot is a singular matrix.
+    fn factor(&mut self, what: &'static str) -> Result<(), StepError> {
+        match self.ks.factor() {
+            Ok(st) => {
+                self.min_pivot_ratio = self.min_pivot_ratio.min(st.pivot_ratio());
+                Ok(())
+            }
+            Err(LinalgError::NotPositiveDefinite { row, .. }) => {
+                Err(StepError::Singular { what, row })
+            }
+            Err(e) => Err(StepError::Linalg {
+                what,
+                message: e.to_string(),
+            }),
         }
-        self.min_pivot_ratio = self.min_pivot_ratio.min(self.solver.pivot_ratio());
-        Ok(())
     }
 
     /// One half step (or a full step in single-stage mode) of sequence `x` at τ.
     fn advance<S: System>(&mut self, sys: &S, x: usize, y: usize) -> Result<u32, StepError> {
         let layout = sys.layout();
         self.evaluate(sys, x, y);
-        self.lambda_prev.copy_from_slice(&self.lambda);
         let mut iters = 0;
         let advanced = match self.law.clone() {
-            Law::Staggered { lint: LintForm::Exact, .. } => {
+            Law::Staggered {
+                lint: LintForm::Exact,
+                ..
+            } => {
+                // warm start: λ(τ) ≈ 2λ(τ − Δ) − λ(τ − 2Δ)
+                for r in 0..layout.rows {
+                    let (l1, l0) = (self.lambda[r], self.lambda_prev[r]);
+                    self.lambda_prev[r] = l1;
+                    self.lambda[r] = if self.active[r] { 2.0 * l1 - l0 } else { 0.0 };
+                }
                 iters = self.lint_exact(sys, x)?;
                 true
             }
-            Law::Staggered { lint: LintForm::Midpoint, .. } => {
-                let lam_step = if self.single_stage { self.h } else { self.h / 2.0 };
+            Law::Staggered {
+                lint: LintForm::Midpoint,
+                ..
+            } => {
+                self.lambda_prev.copy_from_slice(&self.lambda);
+                let lam_step = if self.single_stage {
+                    self.h
+                } else {
+                    self.h / 2.0
+                };
                 self.lint_midpoint(sys, x, lam_step)?;
                 false
             }
             Law::Baumgarte { alpha, beta } => {
-                self.lint_baumgarte(sys, y, alpha, beta)?;
+                self.lambda_prev.copy_from_slice(&self.lambda);
+                self.lint_baumgarte(sys, x, alpha, beta)?;
                 false
             }
             Law::Penalty => {
+                self.lambda_prev.copy_from_slice(&self.lambda);
+                // λ = Φ/ε; nonholonomic rows penalize the velocity residual with the lagged
+                // velocity and ε/h (explicit damping, stable for (h/ε_N)·λ_max(K)·h < 2).
+                b_times(layout, &self.ce, &self.seq[x].vel, &mut self.tmp);
                 for r in 0..layout.rows {
-                    self.lambda[r] = if self.active[r] { self.ce.phi[r] / self.epsilon } else { 0.0 };
+                    self.lambda[r] = if !self.active[r] {
+                        0.0
+                    } else if layout.row_kind[r] == RowKind::Holonomic {
+                        self.ce.phi[r] / self.epsilon
+                    } else {
+                        (self.tmp[r] + self.ce.bias[r]) * self.h / self.epsilon
+                    };
                 }
                 false
             }
@@ -436,15 +646,33 @@ impl TwoStage {
             std::mem::swap(&mut self.seq[x], &mut self.trial);
         } else {
             bt_lambda(layout, &self.ce, &self.lambda, &self.active, &mut self.flam);
-            Self::cint_in_place(layout, self.h, self.paper_literal, &self.qbar, &self.flam, &mut self.seq[x]);
+            Self::cint_in_place(
+                layout,
+                self.h,
+                self.paper_literal,
+                &self.qbar,
+                &self.flam,
+                &mut self.seq[x],
+            );
         }
         Ok(iters)
     }
 
     fn check_locks<S: System>(&mut self, sys: &S) {
-        let vel_seq = if self.single_stage { self.x } else { 1 - self.x };
+        let vel_seq = if self.single_stage {
+            self.x
+        } else {
+            1 - self.x
+        };
         self.next_active.copy_from_slice(&self.active);
-        if sys.update_locks(&self.seq[self.x].pose, &self.seq[vel_seq].vel, &mut self.next_active).is_some() {
+        if sys
+            .update_locks(
+                &self.seq[self.x].pose,
+                &self.seq[vel_seq].vel,
+                &mut self.next_active,
+            )
+            .is_some()
+        {
             for r in 0..self.active.len() {
                 if self.next_active[r] && !self.active[r] {
                     self.fresh[r] = true;
@@ -470,11 +698,35 @@ fn midpoint_rhs_factor(lam_step: f64, paper_literal: bool) -> f64 {
 
 /// CINT for one body: `u̇ + h M⁻¹(Q̄ − f_λ)`, then positions with the new velocity.
 #[inline]
-fn cint_body(m: &crate::system::MassProps, h: f64, literal: bool, qbar: &Wrench, flam: &Wrench, p: &Pose, v: &Twist) -> (Pose, Twist) {
-    let a = accel(m, &Wrench { f: qbar.f - flam.f, t: qbar.t - flam.t });
-    let v = Twist { v: v.v + a.v * h, w: v.w + a.w * h };
+fn cint_body(
+    m: &crate::system::MassProps,
+    h: f64,
+    literal: bool,
+    qbar: &Wrench,
+    flam: &Wrench,
+    p: &Pose,
+    v: &Twist,
+) -> (Pose, Twist) {
+    let a = accel(
+        m,
+        &Wrench {
+            f: qbar.f - flam.f,
+            t: qbar.t - flam.t,
+        },
+    );
+    let v = Twist {
+        v: v.v + a.v * h,
+        w: v.w + a.w * h,
+    };
     let q = cayley_update(&p.q, &v.w, h, literal);
-    (Pose { r: p.r + v.v * h, q, c: crate::math::rotation(&q) }, v)
+    (
+        Pose {
+            r: p.r + v.v * h,
+            q,
+            c: crate::math::rotation(&q),
+        },
+        v,
+    )
 }
 
 impl<S: System> Integrator<S> for TwoStage {
@@ -516,20 +768,34 @@ impl<S: System> Integrator<S> for TwoStage {
         if self.single_stage {
             // velocity at t: the lagged one plus half a step of the last acceleration
             for i in 0..layout.bodies() {
-                let net = Wrench { f: self.qbar[i].f - self.flam[i].f, t: self.qbar[i].t - self.flam[i].t };
+                let net = Wrench {
+                    f: self.qbar[i].f - self.flam[i].f,
+                    t: self.qbar[i].t - self.flam[i].t,
+                };
                 let a = accel(&layout.mass[i], &net);
                 let v = self.seq[0].vel[i];
-                out.twist[i] = Twist { v: v.v - a.v * (self.h / 2.0), w: v.w - a.w * (self.h / 2.0) };
+                out.twist[i] = Twist {
+                    v: v.v - a.v * (self.h / 2.0),
+                    w: v.w - a.w * (self.h / 2.0),
+                };
             }
         } else {
             out.twist.copy_from_slice(&self.seq[1 - self.x].vel);
         }
         // λ was last computed at tau_lambda (h/2 or h before t): extrapolate linearly.
         let dt = self.tau - self.tau_lambda;
-        let gap = if self.single_stage { self.h } else { self.h / 2.0 };
+        let gap = if self.single_stage {
+            self.h
+        } else {
+            self.h / 2.0
+        };
         for r in 0..self.lambda.len() {
             let slope = (self.lambda[r] - self.lambda_prev[r]) / gap;
-            out.lambda[r] = if self.active[r] { self.lambda[r] + slope * dt } else { 0.0 };
+            out.lambda[r] = if self.active[r] {
+                self.lambda[r] + slope * dt
+            } else {
+                0.0
+            };
         }
     }
 
@@ -539,8 +805,17 @@ impl<S: System> Integrator<S> for TwoStage {
 
     fn stats(&self) -> Vec<(&'static str, f64)> {
         let mut v = vec![("epsilon", self.epsilon)];
-        if matches!(self.law, Law::Staggered { lint: LintForm::Exact, .. }) {
-            v.push(("newton_iterations_mean", self.iterations as f64 / self.lints.max(1) as f64));
+        if matches!(
+            self.law,
+            Law::Staggered {
+                lint: LintForm::Exact,
+                ..
+            }
+        ) {
+            v.push((
+                "newton_iterations_mean",
+                self.iterations as f64 / self.lints.max(1) as f64,
+            ));
             v.push(("newton_iterations_max", self.max_iterations as f64));
         }
         v.push(("min_pivot_ratio", self.min_pivot_ratio));
@@ -590,7 +865,10 @@ mod tests {
             }
             prev = Some((st.t, x));
         }
-        ((crossings[periods] - crossings[0]) / periods as f64, max_phi)
+        (
+            (crossings[periods] - crossings[0]) / periods as f64,
+            max_phi,
+        )
     }
 
     #[test]
@@ -599,7 +877,9 @@ mod tests {
         let exact = exact_period(&sys);
         let mut errs = Vec::new();
         for h in [4e-3, 2e-3, 1e-3] {
-            let mut it = TwoStage::staggered(&sys, h, &StaggeredOptions::default(), &State::initial(&sys));
+            let mut it =
+                TwoStage::staggered(&sys, h, &StaggeredOptions::default(), &State::initial(&sys))
+                    .unwrap();
             let (t, phi) = measured_period(&sys, &mut it, 3);
             let err = (t - exact).abs() / exact;
             eprintln!("h={h:e} period={t:.9} exact={exact:.9} rel={err:.3e} max|Φ|={phi:.3e}");
@@ -619,12 +899,22 @@ mod tests {
         let sys = RodPendulum::new(2.0, 1.0, 0.01, 0.0);
         let weight = 2.0 * 9.81;
         let mut st = State::new(1, 3);
-        let mut it = TwoStage::staggered(&sys, 1e-3, &StaggeredOptions::default(), &State::initial(&sys));
+        let mut it = TwoStage::staggered(
+            &sys,
+            1e-3,
+            &StaggeredOptions::default(),
+            &State::initial(&sys),
+        )
+        .unwrap();
         for _ in 0..1000 {
             it.step(&sys).unwrap();
         }
         Integrator::<RodPendulum>::state(&it, &sys, &mut st);
-        assert!((st.lambda[2] + weight).abs() < 1e-9 * weight, "exact: λ = {:?}", st.lambda);
+        assert!(
+            (st.lambda[2] + weight).abs() < 1e-9 * weight,
+            "exact: λ = {:?}",
+            st.lambda
+        );
         // Midpoint LINT: the scalar recursion (ε + (Δλ/2)δA) λ̃ = ελ + f(r + r), λ ← 2λ̃ − λ
         // with constant A and r must settle at (δA)⁻¹r (δ = h/2) with the corrected coefficient.
         let (h, a, r, eps) = (1e-2, 2.0, 3.0, 2e-5);
@@ -636,7 +926,10 @@ mod tests {
                 let lt = (eps * lam + f * 2.0 * r) / (eps + lam_step / 2.0 * (h / 2.0) * a);
                 lam = 2.0 * lt - lam;
             }
-            assert!((lam / (r / (h / 2.0 * a)) - expect).abs() < 1e-9, "literal={literal}: λ = {lam}");
+            assert!(
+                (lam / (r / (h / 2.0 * a)) - expect).abs() < 1e-9,
+                "literal={literal}: λ = {lam}"
+            );
         }
     }
 
@@ -644,8 +937,11 @@ mod tests {
     fn midpoint_lint_is_not_robust_on_the_pendulum() {
         // Documents why the exact form is the default (docs/methods.md).
         let sys = RodPendulum::new(1.0, 1.0, 0.01, 170f64.to_radians());
-        let opts = StaggeredOptions { lint: LintForm::Midpoint, ..Default::default() };
-        let mut it = TwoStage::staggered(&sys, 1e-3, &opts, &State::initial(&sys));
+        let opts = StaggeredOptions {
+            lint: LintForm::Midpoint,
+            ..Default::default()
+        };
+        let mut it = TwoStage::staggered(&sys, 1e-3, &opts, &State::initial(&sys)).unwrap();
         let mut st = State::new(1, 3);
         let mut worst: f64 = 0.0;
         for _ in 0..8000 {

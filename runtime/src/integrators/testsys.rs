@@ -37,7 +37,12 @@ impl RodPendulum {
             row_joint: vec![0; 3],
             row_kind: vec![RowKind::Holonomic; 3],
         };
-        RodPendulum { layout, l, g: 9.81, theta0 }
+        RodPendulum {
+            layout,
+            l,
+            g: 9.81,
+            theta0,
+        }
     }
 
     fn p(&self) -> Vector3<f64> {
@@ -59,9 +64,19 @@ impl System for RodPendulum {
         twist[0] = Twist::default();
     }
     fn applied(&self, _t: f64, _pose: &[Pose], _twist: &[Twist], out: &mut [Wrench]) {
-        out[0] = Wrench { f: Vector3::new(0.0, 0.0, -self.g * self.layout.mass[0].m), t: Vector3::zeros() };
+        out[0] = Wrench {
+            f: Vector3::new(0.0, 0.0, -self.g * self.layout.mass[0].m),
+            t: Vector3::zeros(),
+        };
     }
-    fn constraints(&self, _t: f64, pose: &[Pose], twist: &[Twist], need: Need, out: &mut ConstraintEval) {
+    fn constraints(
+        &self,
+        _t: f64,
+        pose: &[Pose],
+        twist: &[Twist],
+        need: Need,
+        out: &mut ConstraintEval,
+    ) {
         // Φ = r_b + C p − 0 (b side = rod)
         let p = &pose[0];
         let cp = p.c * self.p();

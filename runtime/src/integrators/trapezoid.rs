@@ -23,8 +23,8 @@
 use nalgebra::{DMatrix, Matrix3, Quaternion, Vector3};
 
 use super::common::{self, accel, bt_lambda, qbar, Index1};
-use super::dense::Lu;
-use super::{Integrator, State, StepError, StepInfo};
+use super::{Integrator, StartError, State, StepError, StepInfo};
+use crate::linalg::DenseLu;
 use crate::math::{rotation, skew};
 use crate::system::{ConstraintEval, Need, Pose, RowKind, System, Twist, Wrench};
 
@@ -48,7 +48,7 @@ pub struct Trapezoid {
     flam: Vec<Wrench>,
     ce: ConstraintEval,
     jac: DMatrix<f64>,
-    lu: Lu,
+    lu: DenseLu,
     z: Vec<f64>,
     fd_base: Vec<Wrench>,
     fd_pose: Vec<Pose>,
@@ -62,7 +62,13 @@ pub struct Trapezoid {
 
 impl Trapezoid {
     /// Start from the system's initial state.
-    pub fn new<S: System>(sys: &S, h: f64, tolerance: f64, max_iterations: u32, start: &State) -> Trapezoid {
+    pub fn new<S: System>(
+        sys: &S,
+        h: f64,
+        tolerance: f64,
+        max_iterations: u32,
+        start: &State,
+    ) -> Result<Trapezoid, StartError> {
         let layout = sys.layout();
         let (nb, m) = (layout.bodies(), layout.rows);
         let (t0, pose, vel) = (start.t, start.pose.clone(), start.twist.clone());
@@ -74,15 +80,23 @@ impl Trapezoid {
         let mut q = vec![Wrench::default(); nb];
         qbar(layout, &applied, &vel, &mut q);
         let mut lambda = vec![0.0; m];
-        Index1::new(layout).solve(layout, &ce, &q, &active, &mut lambda);
+        Index1::new(layout)?.solve(layout, &ce, &q, &active, &mut lambda)?;
         let mut flam = vec![Wrench::default(); nb];
         bt_lambda(layout, &ce, &lambda, &active, &mut flam);
         let acc = (0..nb)
-            .map(|i| accel(&layout.mass[i], &Wrench { f: q[i].f - flam[i].f, t: q[i].t - flam[i].t }))
+            .map(|i| {
+                accel(
+                    &layout.mass[i],
+                    &Wrench {
+                        f: q[i].f - flam[i].f,
+                        t: q[i].t - flam[i].t,
+                    },
+                )
+            })
             .collect();
         let n = 6 * nb + m;
         let pos_scale = pose.iter().fold(1.0f64, |a, p| a.max(p.r.norm()));
-        Trapezoid {
+        Ok(Trapezoid {
             h,
             tol: tolerance,
             max_iter: max_iterations.max(1),
@@ -102,14 +116,14 @@ impl Trapezoid {
             flam,
             ce,
             jac: DMatrix::zeros(n, n),
-            lu: Lu::new(n),
+            lu: DenseLu::new(n),
             z: vec![0.0; n],
             fd_base: vec![Wrench::default(); nb],
             pos_scale,
             iterations: 0,
             steps: 0,
             max_iterations: 0,
-        }
+        })
     }
 
     /// Positions at tⁿ⁺¹ from velocities `vel1` (trapezoidal rule).
@@ -117,10 +131,19 @@ impl Trapezoid {
         let d = self.h / 2.0;
         for i in 0..self.pose.len() {
             let p = &self.pose[i];
-            let (w0, w1) = (self.vel[i].w * (self.h / 4.0), self.vel1[i].w * (self.h / 4.0));
-            let q = p.q * Quaternion::new(1.0, w0.x, w0.y, w0.z) * Quaternion::new(1.0, w1.x, w1.y, w1.z);
+            let (w0, w1) = (
+                self.vel[i].w * (self.h / 4.0),
+                self.vel1[i].w * (self.h / 4.0),
+            );
+            let q = p.q
+                * Quaternion::new(1.0, w0.x, w0.y, w0.z)
+                * Quaternion::new(1.0, w1.x, w1.y, w1.z);
             let q = q / q.norm();
-            self.pose1[i] = Pose { r: p.r + (self.vel[i].v + self.vel1[i].v) * d, q, c: rotation(&q) };
+            self.pose1[i] = Pose {
+                r: p.r + (self.vel[i].v + self.vel1[i].v) * d,
+                q,
+                c: rotation(&q),
+            };
         }
     }
 
@@ -132,7 +155,17 @@ impl Trapezoid {
         self.positions();
         sys.applied(t1, &self.pose1, &self.vel1, &mut self.applied);
         qbar(layout, &self.applied, &self.vel1, &mut self.q);
-        sys.constraints(t1, &self.pose1, &self.vel1, Need { phi: true, jac: true, gamma: false }, &mut self.ce);
+        sys.constraints(
+            t1,
+            &self.pose1,
+            &self.vel1,
+            Need {
+                phi: true,
+                jac: true,
+                gamma: false,
+            },
+            &mut self.ce,
+        );
         bt_lambda(layout, &self.ce, &self.lambda, &self.active, &mut self.flam);
         for i in 0..layout.bodies() {
             let mp = &layout.mass[i];
@@ -222,7 +255,8 @@ impl Trapezoid {
                         eps = 1e-7;
                         let mut phi = Vector3::zeros();
                         phi[c - 3] = eps;
-                        self.fd_pose[k] = common::rotate_body(&self.pose1[k], Vector3::zeros(), phi);
+                        self.fd_pose[k] =
+                            common::rotate_body(&self.pose1[k], Vector3::zeros(), phi);
                         weight = d;
                     }
                     6..=8 => {
@@ -270,7 +304,10 @@ impl<S: System> Integrator<S> for Trapezoid {
         let t1 = self.t + self.h;
         // predictor: explicit Euler on the velocities
         for i in 0..nb {
-            self.vel1[i] = Twist { v: self.vel[i].v + self.acc[i].v * self.h, w: self.vel[i].w + self.acc[i].w * self.h };
+            self.vel1[i] = Twist {
+                v: self.vel[i].v + self.acc[i].v * self.h,
+                w: self.vel[i].w + self.acc[i].w * self.h,
+            };
         }
         let tol_phi = self.tol * self.pos_scale;
         let mut prev_norm = f64::INFINITY;
@@ -281,18 +318,31 @@ impl<S: System> Integrator<S> for Trapezoid {
             let rnorm = self.z.iter().fold(0.0f64, |a, b| a.max(b.abs()));
             if it == 0 || rnorm > 0.5 * prev_norm {
                 self.jacobian(sys, t1);
-                self.lu.factor(&self.jac).map_err(|row| StepError::Singular { what: "trapezoidal Newton", row })?;
+                self.lu.factor(&self.jac).map_err(|e| match e {
+                    crate::linalg::LinalgError::Singular { pivot } => StepError::Singular {
+                        what: "trapezoidal Newton",
+                        row: pivot.saturating_sub(6 * nb),
+                    },
+                    e => StepError::Linalg {
+                        what: "trapezoidal Newton",
+                        message: e.to_string(),
+                    },
+                })?;
             }
             prev_norm = rnorm;
-            self.lu.solve(&mut self.z);
+            self.lu.solve_in_place(&mut self.z);
             let mut dmax: f64 = 0.0;
             let mut vmax: f64 = 1.0;
             for i in 0..nb {
                 for c in 0..3 {
                     self.vel1[i].v[c] += self.z[6 * i + c];
                     self.vel1[i].w[c] += self.z[6 * i + 3 + c];
-                    dmax = dmax.max(self.z[6 * i + c].abs()).max(self.z[6 * i + 3 + c].abs());
-                    vmax = vmax.max(self.vel1[i].v[c].abs()).max(self.vel1[i].w[c].abs());
+                    dmax = dmax
+                        .max(self.z[6 * i + c].abs())
+                        .max(self.z[6 * i + 3 + c].abs());
+                    vmax = vmax
+                        .max(self.vel1[i].v[c].abs())
+                        .max(self.vel1[i].w[c].abs());
                 }
             }
             for r in 0..layout.rows {
@@ -306,7 +356,11 @@ impl<S: System> Integrator<S> for Trapezoid {
         }
         if !converged {
             let residual = self.z.iter().fold(0.0f64, |a, b| a.max(b.abs()));
-            return Err(StepError::NoConvergence { what: "implicit trapezoid Newton iteration", iterations: it, residual });
+            return Err(StepError::NoConvergence {
+                what: "implicit trapezoid Newton iteration",
+                iterations: it,
+                residual,
+            });
         }
         // accept
         self.positions();
@@ -325,7 +379,10 @@ impl<S: System> Integrator<S> for Trapezoid {
         self.iterations += it as u64;
         self.max_iterations = self.max_iterations.max(it);
         self.next_active.copy_from_slice(&self.active);
-        if sys.update_locks(&self.pose, &self.vel, &mut self.next_active).is_some() {
+        if sys
+            .update_locks(&self.pose, &self.vel, &mut self.next_active)
+            .is_some()
+        {
             for r in 0..layout.rows {
                 if self.next_active[r] && !self.active[r] {
                     self.lambda[r] = 0.0;
@@ -349,7 +406,10 @@ impl<S: System> Integrator<S> for Trapezoid {
 
     fn stats(&self) -> Vec<(&'static str, f64)> {
         vec![
-            ("newton_iterations_mean", self.iterations as f64 / self.steps.max(1) as f64),
+            (
+                "newton_iterations_mean",
+                self.iterations as f64 / self.steps.max(1) as f64,
+            ),
             ("newton_iterations_max", self.max_iterations as f64),
         ]
     }
@@ -363,11 +423,13 @@ mod tests {
     #[test]
     fn pendulum_energy_and_constraint() {
         let sys = RodPendulum::new(1.0, 1.0, 0.01, 170f64.to_radians());
-        let mut it = Trapezoid::new(&sys, 1e-3, 1e-10, 20, &State::initial(&sys));
+        let mut it = Trapezoid::new(&sys, 1e-3, 1e-10, 20, &State::initial(&sys)).unwrap();
         let mut st = State::new(1, 3);
         let e = |st: &State| {
             let m = &sys.layout.mass[0];
-            0.5 * m.m * st.twist[0].v.norm_squared() + 0.5 * st.twist[0].w.dot(&(m.j * st.twist[0].w)) + sys.potential_energy(0.0, &st.pose)
+            0.5 * m.m * st.twist[0].v.norm_squared()
+                + 0.5 * st.twist[0].w.dot(&(m.j * st.twist[0].w))
+                + sys.potential_energy(0.0, &st.pose)
         };
         Integrator::<RodPendulum>::state(&it, &sys, &mut st);
         let e0 = e(&st);
