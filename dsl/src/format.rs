@@ -161,14 +161,19 @@ impl Fmt {
             ItemKind::If { .. } => {
                 // A chain is printed on one line only if all its blocks fit on it;
                 // otherwise every block of the chain is printed on several lines.
-                let start = self.out.len();
-                let col = self.col();
-                self.if_chain(item, level, true);
-                let line = &self.out[start..];
-                if line.contains('\n') || col + line.chars().count() > MAX_WIDTH {
+                // (The one-line attempt is only made when every block is a one-line block of
+                // properties, so it is cheap: nested chains are never laid out twice.)
+                if chain_may_be_inline(item) {
+                    let start = self.out.len();
+                    let col = self.col();
+                    self.if_chain(item, level, true);
+                    let line = &self.out[start..];
+                    if !line.contains('\n') && col + line.chars().count() <= MAX_WIDTH {
+                        return;
+                    }
                     self.out.truncate(start);
-                    self.if_chain(item, level, false);
                 }
+                self.if_chain(item, level, false);
             }
             ItemKind::Decl {
                 keyword,
@@ -247,6 +252,33 @@ impl Fmt {
         }
         self.indent(level);
         self.out.push('}');
+    }
+}
+
+/// True if every block of the `if` chain starting at `item` is empty or may be printed on
+/// one line.
+fn chain_may_be_inline(item: &Item) -> bool {
+    let mut item = item;
+    loop {
+        let ItemKind::If {
+            then, otherwise, ..
+        } = &item.kind
+        else {
+            return false;
+        };
+        let ok = |b: &Block| {
+            b.items.is_empty() && b.trailing_comments.is_empty() || inline_block(b).is_some()
+        };
+        if !ok(then) {
+            return false;
+        }
+        match otherwise {
+            None => return true,
+            Some(other) => match else_if(other) {
+                Some(nested) => item = nested,
+                None => return ok(other),
+            },
+        }
     }
 }
 

@@ -196,3 +196,16 @@ fn empty_file_and_line_endings() {
         "a 1\n\nb {\n  c 2 // x\n}\n"
     );
 }
+
+#[test]
+fn nested_chains_are_laid_out_in_linear_time() {
+    // Each level is laid out once: an exponential layout would not finish.
+    let n = 120;
+    let src = format!(
+        "{}x 1{}",
+        "if a { y 2\n".repeat(n),
+        "\n} else { z 3 }".repeat(n)
+    );
+    let out = fmt(&src);
+    assert_eq!(out.lines().count(), 5 * n + 1);
+}
