@@ -186,10 +186,19 @@ fn velocity_rows(j: &Joint, a: &Pose, b: &Pose, t: f64) -> Vec<f64> {
 
 /// Largest absolute position-level and velocity-level residual of a joint at t = 0.
 pub fn initial_violation(scene: &Scene, j: &Joint) -> (f64, f64) {
+    violation_in(&State::initial(scene), j)
+}
+
+/// [`initial_violation`] of every joint, in order.
+pub fn initial_violations(scene: &Scene) -> Vec<(f64, f64)> {
     let s = State::initial(scene);
+    scene.joints.iter().map(|j| violation_in(&s, j)).collect()
+}
+
+fn violation_in(s: &State, j: &Joint) -> (f64, f64) {
     let maxabs = |v: &[f64]| v.iter().fold(0.0f64, |m, x| m.max(x.abs()));
-    let pos = maxabs(&holonomic(j, &s, 0.0));
-    let vel = maxabs(&holonomic_rate(j, &s, 0.0)).max(maxabs(&nonholonomic(j, &s, 0.0)));
+    let pos = maxabs(&holonomic(j, s, 0.0));
+    let vel = maxabs(&holonomic_rate(j, s, 0.0)).max(maxabs(&nonholonomic(j, s, 0.0)));
     (pos, vel)
 }
 

@@ -195,21 +195,20 @@ pub fn summary(scene: &Scene) -> CheckSummary {
             .map(|b| b.name.clone())
             .unwrap_or_else(|| format!("#{i}")),
     };
+    let violations = kinematics::initial_violations(scene);
     let joints: Vec<JointSummary> = scene
         .joints
         .iter()
-        .map(|j| {
-            let (p, v) = kinematics::initial_violation(scene, j);
-            JointSummary {
-                name: j.name.clone(),
-                kind: j.kind.keyword(),
-                rows: j.kind.rows(),
-                nonholonomic: j.kind.nonholonomic_rows(),
-                a: body_name(j.a.body),
-                b: body_name(j.b.body),
-                position_violation: p,
-                velocity_violation: v,
-            }
+        .zip(violations)
+        .map(|(j, (p, v))| JointSummary {
+            name: j.name.clone(),
+            kind: j.kind.keyword(),
+            rows: j.kind.rows(),
+            nonholonomic: j.kind.nonholonomic_rows(),
+            a: body_name(j.a.body),
+            b: body_name(j.b.body),
+            position_violation: p,
+            velocity_violation: v,
         })
         .collect();
     let nonholonomic_rows: usize = scene

@@ -15,8 +15,11 @@ pub const VIOLATION_TOLERANCE: f64 = 1e-6;
 /// Diagnostics (warnings and notes) about a valid scene.
 pub fn validate(scene: &Scene, sources: &Sources) -> Vec<Diagnostic> {
     let mut out = Vec::new();
-    for j in &scene.joints {
-        let (p, v) = kinematics::initial_violation(scene, j);
+    for (j, (p, v)) in scene
+        .joints
+        .iter()
+        .zip(kinematics::initial_violations(scene))
+    {
         let (file, span) = Sources::resolve(j.origin);
         if p > VIOLATION_TOLERANCE {
             out.push(

@@ -513,7 +513,7 @@ impl<'a> Lowerer<'a> {
                     if n == 0 {
                         continue;
                     }
-                    let per = count_shallow(body).max(1) as i128;
+                    let per = self.estimate(body, sc, 0).max(1) as i128;
                     let remaining = (MAX_ITEMS - self.generated.min(MAX_ITEMS)) as i128;
                     if n * per > remaining {
                         self.limit_hit = true;
@@ -669,6 +669,36 @@ impl<'a> Lowerer<'a> {
             return;
         }
         *slot = Some(s);
+    }
+
+    /// A lower bound on the items a block generates: nested loops whose bounds can be
+    /// evaluated here multiply; anything else counts as one. Evaluates silently.
+    fn estimate(&mut self, b: &Block, sc: &Scope, depth: u32) -> u128 {
+        if depth > 8 {
+            return b.items.len() as u128;
+        }
+        let mut n: u128 = 0;
+        for it in &b.items {
+            n = n.saturating_add(match &it.kind {
+                ItemKind::For {
+                    start, end, body, ..
+                } => {
+                    let mark = self.diags.len();
+                    let r = (
+                        self.int(start, sc, "a loop bound"),
+                        self.int(end, sc, "a loop bound"),
+                    );
+                    self.diags.truncate(mark);
+                    match r {
+                        (Ok(a), Ok(z)) if z > a => ((z as i128 - a as i128) as u128)
+                            .saturating_mul(self.estimate(body, sc, depth + 1).max(1)),
+                        _ => 1,
+                    }
+                }
+                _ => 1,
+            });
+        }
+        n
     }
 
     /// The evaluated name of a declaration: `link[3]`, prefixed with the instance path.
@@ -1047,11 +1077,6 @@ impl<'a> Lowerer<'a> {
         self.expand_items(&comp.body.items, &mut csc, Ctx::Component, depth + 1);
         self.comp_stack.pop();
     }
-}
-
-/// Number of items directly in a block (loops and conditions count as one).
-fn count_shallow(b: &Block) -> usize {
-    b.items.len()
 }
 
 /// `1,000,000`

@@ -1,0 +1,329 @@
+//! Lowering of individual constructs: units, dimension errors, components, loops, frames,
+//! inertia, time functions, meshes and beams.
+
+use mbdc_compiler::{load_str, Override, Scene};
+use mbdc_runtime::scene::{BodyRef, Fn1, ForceKind, JointKind, MeshCondition, MethodSpec};
+use nalgebra::{Quaternion, Vector3};
+
+fn scene(src: &str) -> Scene {
+    let l = load_str("test.mbd", src, &[]);
+    assert!(!l.has_errors(), "{}", l.render_plain());
+    l.scene.expect("scene")
+}
+
+fn errors(src: &str) -> Vec<(String, String)> {
+    let l = load_str("test.mbd", src, &[]);
+    assert!(l.has_errors(), "expected errors");
+    l.errors()
+        .map(|d| (d.code.to_string(), d.message.clone()))
+        .collect()
+}
+
+fn model(items: &str) -> String {
+    format!("model t {{\n{items}\n  simulate {{ duration 1 s; step 1 ms }}\n}}\n")
+}
+
+fn rot(q: [f64; 4]) -> nalgebra::Matrix3<f64> {
+    mbdc_runtime::math::rotation(&Quaternion::new(q[0], q[1], q[2], q[3]))
+}
+
+fn close(a: f64, b: f64) -> bool {
+    (a - b).abs() <= 1e-12 * (1.0 + a.abs().max(b.abs()))
+}
+
+#[test]
+fn units_convert_to_si() {
+    let s = scene(&model(
+        "body b {\n mass 250 g\n inertia diag(1, 2, 2.5) g*cm^2\n position (1 in, 2 ft, 3 mm)\n velocity (36 km / 1 min, 0, 0)\n angular_velocity (60 rpm, 90 deg/s, 1 rev/s)\n }",
+    ));
+    let b = &s.bodies[0];
+    assert!(close(b.mass, 0.25));
+    assert!(close(b.inertia[0][0], 1e-7) && close(b.inertia[2][2], 2.5e-7));
+    assert!(
+        close(b.position[0], 0.0254) && close(b.position[1], 0.6096) && close(b.position[2], 0.003)
+    );
+    assert!(close(b.velocity[0], 600.0));
+    let pi = std::f64::consts::PI;
+    assert!(close(b.angular_velocity[0], 2.0 * pi) && close(b.angular_velocity[1], pi / 2.0));
+    assert!(close(b.angular_velocity[2], 2.0 * pi));
+    // A unit name as a value: 20/s.
+    let src = model("body b { mass 1 kg; inertia sphere(radius: 1 cm) }").replace(
+        "simulate { duration 1 s; step 1 ms }",
+        "simulate { duration 1 s; step 1 ms; method baumgarte { alpha 20/s; beta 5 Hz } }",
+    );
+    let s = scene(&src);
+    assert_eq!(
+        s.simulate.method,
+        MethodSpec::Baumgarte {
+            alpha: 20.0,
+            beta: 5.0
+        }
+    );
+}
+
+#[test]
+fn dimension_errors_name_the_units() {
+    let e = errors(&model(
+        "body b { mass 1 kg; inertia sphere(radius: 1 cm); position (1 m + 2 s, 0, 0) }",
+    ));
+    assert!(
+        e.iter()
+            .any(|(c, m)| c == "mbdc::unit-mismatch" && m == "cannot add m and s"),
+        "{e:?}"
+    );
+    let e = errors(&model("body b { mass 2 m; inertia sphere(radius: 1 cm) }"));
+    assert!(
+        e.iter().any(|(_, m)| m == "a mass must be in kg, found m"),
+        "{e:?}"
+    );
+    let e = errors(&model(
+        "body b { mass 1 kg; inertia sphere(radius: sqrt(2 m)) }",
+    ));
+    assert!(
+        e.iter().any(|(_, m)| m.contains("square root of m")),
+        "{e:?}"
+    );
+    let e = errors(&model("body b { mass 1 kg; inertia sphere(radius: 1 cm); orientation axis_angle((0, 0, 1), sin(2 m)) }"));
+    assert!(
+        e.iter()
+            .any(|(_, m)| m.contains("`sin` needs a dimensionless argument")),
+        "{e:?}"
+    );
+    // A bare zero fits any dimension, 0 with a unit does not.
+    scene(&model(
+        "body b { mass 1 kg; inertia sphere(radius: 1 cm); position (1 m, 0, 0) }",
+    ));
+    let e = errors(&model(
+        "body b { mass 1 kg; inertia sphere(radius: 1 cm); position (1 m, 0 s, 0) }",
+    ));
+    assert!(e.iter().any(|(c, _)| c == "mbdc::unit-mismatch"), "{e:?}");
+}
+
+#[test]
+fn params_and_overrides() {
+    let src = model("param L = 1 m\n body b { mass 1 kg; inertia sphere(radius: L / 10) }");
+    let l = load_str("t.mbd", &src, &["L=2 m".parse::<Override>().unwrap()]);
+    let s = l.scene.expect("scene");
+    assert!(close(s.bodies[0].inertia[0][0], 0.4 * 0.04));
+    assert!(s
+        .params
+        .iter()
+        .any(|p| p.name == "L" && p.value == 2.0 && p.overridden));
+    // Wrong dimension and unknown names are errors that point at the override.
+    let l = load_str("t.mbd", &src, &["L=2 s".parse::<Override>().unwrap()]);
+    assert!(l.errors().any(|d| d.code == "mbdc::override"));
+    let l = load_str("t.mbd", &src, &["Lx=2 m".parse::<Override>().unwrap()]);
+    let d = l
+        .errors()
+        .find(|d| d.code == "mbdc::override")
+        .expect("unknown override");
+    assert_eq!(d.help.as_deref(), Some("did you mean `L`?"));
+    assert!("no_equals".parse::<Override>().is_err());
+    assert!("1x=2".parse::<Override>().is_err());
+}
+
+#[test]
+fn components_expand_with_prefixes() {
+    let s = scene(
+        "component Link(parent, L = 1 m) {\n  body bar { mass 1 kg; inertia rod(length: L, radius: 1 cm); position (0, 0, -L / 2) }\n  joint pin = spherical(parent, bar @ (0, 0, L / 2))\n}\ncomponent Double(L) {\n  instance upper = Link(parent: ground @ (0, 0, 0), L: L)\n  instance lower = Link(parent: upper.bar @ (0, 0, -L / 2), L: L)\n}\nmodel m {\n  instance arm = Double(L: 2 m)\n  force f = point(arm.lower.bar @ (0, 0, 0), (1, 0, 0) N)\n  simulate { duration 1 s; step 1 ms }\n}\n",
+    );
+    let names: Vec<&str> = s.bodies.iter().map(|b| b.name.as_str()).collect();
+    assert_eq!(names, vec!["arm.upper.bar", "arm.lower.bar"]);
+    let joints: Vec<&str> = s.joints.iter().map(|j| j.name.as_str()).collect();
+    assert_eq!(joints, vec!["arm.upper.pin", "arm.lower.pin"]);
+    // The lower link hangs from the upper bar: joint a = body 0.
+    assert_eq!(s.joints[1].a.body, BodyRef::Body(0));
+    assert_eq!(s.joints[1].b.body, BodyRef::Body(1));
+    match &s.forces[0].kind {
+        ForceKind::Point { at, .. } => assert_eq!(at.body, BodyRef::Body(1)),
+        k => panic!("{k:?}"),
+    }
+    // Both instance positions use L = 2 m from the caller.
+    assert!(close(s.bodies[0].position[2], -1.0));
+}
+
+#[test]
+fn loops_and_conditions_expand() {
+    let s = scene(&model(
+        "param N = 5\n for i in 0..N {\n  const x0 = i * 1 m\n  body b[i] { mass (i + 1) * 1 kg; inertia sphere(radius: 1 cm); position (x0, 0, 0) }\n  if i > 0 {\n   joint j[i] = distance(b[i - 1] @ (0, 0, 0), b[i] @ (0, 0, 0))\n  } else {\n   joint j[i] = spherical(ground @ (0, 0, 0), b[i] @ (0, 0, 0))\n  }\n }\n for i in 0..2 { for k in 0..3 { body grid[i][k] { mass 1 kg; inertia sphere(radius: 1 cm) } } }",
+    ));
+    assert_eq!(s.bodies.len(), 5 + 6);
+    assert_eq!(s.bodies[3].name, "b[3]");
+    assert!(close(s.bodies[3].mass, 4.0));
+    assert_eq!(s.bodies[10].name, "grid[1][2]");
+    assert!(matches!(s.joints[0].kind, JointKind::Spherical));
+    assert!(matches!(s.joints[2].kind, JointKind::Distance { length } if close(length, 1.0)));
+    // An empty range creates nothing; a huge one is refused before expansion.
+    let s = scene(&model(
+        "for i in 3..1 { body b[i] { mass 1 kg; inertia sphere(radius: 1 cm) } }",
+    ));
+    assert!(s.bodies.is_empty());
+    let e = errors(&model("for i in 0..5000 { for k in 0..5000 { body b[i][k] { mass 1 kg; inertia sphere(radius: 1 cm) } } }"));
+    assert!(e.iter().any(|(c, _)| c == "mbdc::limit"), "{e:?}");
+}
+
+#[test]
+fn joint_frames_coincide_in_world() {
+    // Bodies with arbitrary orientations; joint frames must coincide at t = 0 and their
+    // z axes must be the given world axis.
+    let s = scene(&model(
+        "body a { mass 1 kg; inertia sphere(radius: 1 cm); position (1, 2, 3) m; orientation euler_xyz(10 deg, 20 deg, 30 deg) }\n body b { mass 1 kg; inertia sphere(radius: 1 cm); position (1, 2, 4) m; orientation axis_angle((1, 1, 0), 40 deg) }\n joint r = revolute(a @ world((1, 2, 3.5) m), b @ world((1, 2, 3.5) m), axis: (0.2, -1, 0.5))\n joint p = prismatic(ground @ (1, 2, 3) m, a @ (0, 0, 0), axis: (0, 0, 2))\n joint f = fixed(a @ (0, 0, 0), b @ world((1, 2, 3) m))\n joint u = universal(a @ (0, 0, 0), b @ world((1, 2, 3) m), axis_a: (1, 0, 0), axis_b: (0, 1, 1))",
+    ));
+    let pose = |r: BodyRef| match r {
+        BodyRef::Ground => (Vector3::zeros(), nalgebra::Matrix3::identity()),
+        BodyRef::Body(i) => (
+            Vector3::from(s.bodies[i].position),
+            rot(s.bodies[i].orientation),
+        ),
+    };
+    for j in &s.joints {
+        let (xa, ra) = pose(j.a.body);
+        let (xb, rb) = pose(j.b.body);
+        let fa = ra * rot(j.a.frame);
+        let fb = rb * rot(j.b.frame);
+        let pa = xa + ra * Vector3::from(j.a.point);
+        let pb = xb + rb * Vector3::from(j.b.point);
+        assert!((pa - pb).norm() < 1e-12, "{}: points {pa} {pb}", j.name);
+        match j.name.as_str() {
+            "u" => {
+                assert!((fa.column(2) - Vector3::x()).norm() < 1e-12);
+                assert!((fb.column(2) - Vector3::new(0.0, 1.0, 1.0).normalize()).norm() < 1e-12);
+                assert!(fa.column(2).dot(&fb.column(2)).abs() < 1e-12);
+            }
+            name => {
+                assert!((fa - fb).norm() < 1e-12, "{name}: frames differ");
+                if name == "r" {
+                    let axis = Vector3::new(0.2, -1.0, 0.5).normalize();
+                    assert!((fa.column(2) - axis).norm() < 1e-12);
+                }
+                if name == "p" {
+                    assert!((fa.column(2) - Vector3::z()).norm() < 1e-12);
+                    assert!((fa.column(0) - Vector3::x()).norm() < 1e-12);
+                }
+            }
+        }
+    }
+    let e = errors(&model("body a { mass 1 kg; inertia sphere(radius: 1 cm) }\n joint u = universal(ground @ (0, 0, 0), a @ (0, 0, 0), axis_a: (1, 0, 0), axis_b: (1, 1, 0))"));
+    assert!(e.iter().any(|(c, _)| c == "mbdc::not-perpendicular"));
+}
+
+#[test]
+fn inertia_shapes_and_orientation() {
+    let s = scene(&model(
+        "body r { mass 2 kg; inertia rod(length: 1 m, radius: 10 cm, axis: x) }\n body c { mass 2 kg; inertia cylinder(radius: 10 cm, length: 1 m) }\n body x { mass 12 kg; inertia box(size: (1, 2, 3) m) }\n body s { mass 5 kg; inertia sphere(radius: 2 m); orientation quaternion(0.5, 0.5, 0.5, 0.5) }\n body w { mass 1 kg; inertia diag(1, 2, 3) kg*m^2; orientation axis_angle((0, 0, 1), 90 deg); angular_velocity (1, 0, 0) rad/s }",
+    ));
+    let b = &s.bodies;
+    assert!(close(b[0].inertia[0][0], 2.0 * 0.01 / 2.0));
+    assert!(close(b[0].inertia[1][1], 2.0 * (0.03 + 1.0) / 12.0));
+    assert!(close(b[1].inertia[2][2], 0.01) && close(b[1].inertia[0][0], b[0].inertia[1][1]));
+    assert!(
+        close(b[2].inertia[0][0], 13.0)
+            && close(b[2].inertia[1][1], 10.0)
+            && close(b[2].inertia[2][2], 5.0)
+    );
+    assert!(close(b[3].inertia[1][1], 8.0));
+    // World ω (1, 0, 0) on a body turned 90° about z is (0, −1, 0) in body components.
+    assert!(b[4].angular_velocity[0].abs() < 1e-12 && close(b[4].angular_velocity[1], -1.0));
+    // A non-unit quaternion is normalised with a warning.
+    let l = load_str("t.mbd", &model("body q { mass 1 kg; inertia sphere(radius: 1 cm); orientation quaternion(2, 0, 0, 0) }"), &[]);
+    assert!(!l.has_errors());
+    assert!(l
+        .diagnostics
+        .iter()
+        .any(|d| d.code == "mbdc::orientation" && d.severity == mbdc_compiler::Severity::Warning));
+    assert_eq!(l.scene.unwrap().bodies[0].orientation, [1.0, 0.0, 0.0, 0.0]);
+}
+
+#[test]
+fn time_functions_become_fn1_trees() {
+    let s = scene(&model(
+        "const w = 2 * pi * 1 Hz\n const ramp_force = 3 N * smoothstep(t, 0 s, 1 s)\n body b { mass 1 kg; inertia sphere(radius: 1 cm) }\n force f = point(b @ (0, 0, 0), (ramp_force * sin(w * t), 2 N, table(t, [(0 s, 0 N), (1 s, 5 N)])))\n joint d = point_velocity(b @ (0, 0, 0), (0, 0, 1 m/s * step(t - 0.5 s)))",
+    ));
+    let ForceKind::Point { value, .. } = &s.forces[0].kind else {
+        panic!()
+    };
+    assert_eq!(value[1], Fn1::Const(2.0));
+    assert!(!value[0].is_const() && !value[2].is_const());
+    let v = |f: &Fn1, t: f64| mbdc_runtime::fn1::value(f, t);
+    assert!(close(
+        v(&value[0], 0.25),
+        3.0 * (3.0 * 0.0625 - 2.0 * 0.015625) * (std::f64::consts::PI / 2.0).sin()
+    ));
+    assert!(close(v(&value[2], 0.5), 2.5));
+    let JointKind::PointVelocity { velocity } = &s.joints[0].kind else {
+        panic!()
+    };
+    assert_eq!(v(&velocity[2], 0.4), 0.0);
+    assert_eq!(v(&velocity[2], 0.6), 1.0);
+    // Constants fold completely.
+    let s = scene(&model("body b { mass 1 kg; inertia sphere(radius: 1 cm) }\n force f = point(b @ (0, 0, 0), (sqrt(4) * 1 N, 0, 0))"));
+    let ForceKind::Point { value, .. } = &s.forces[0].kind else {
+        panic!()
+    };
+    assert_eq!(value[0], Fn1::Const(2.0));
+    // t where a constant is required.
+    let e = errors(&model(
+        "body b { mass 1 kg; inertia sphere(radius: 1 cm); position (1 m/s * t, 0, 0) }",
+    ));
+    assert!(e.iter().any(|(c, _)| c == "mbdc::time-dependent"));
+}
+
+#[test]
+fn drivers_copy_the_driven_joint() {
+    let s = scene(&model(
+        "body c { mass 1 kg; inertia rod(length: 0.2 m, radius: 1 cm, axis: x); position (0.1, 0, 0) m }\n joint pivot = revolute(ground @ (0, 0, 0), c @ (-0.1, 0, 0) m, axis: (0, 0, 1))\n joint motor = drive_angle(pivot, 1 rad/s * t)\n body s { mass 1 kg; inertia sphere(radius: 1 cm); position (0.3, 0, 0) m }\n joint slide = prismatic(ground @ (0, 0, 0), s @ (0, 0, 0), axis: (1, 0, 0))\n joint push = drive_displacement(slide, 0.1 m/s * t)",
+    ));
+    assert_eq!(s.joints[1].a, s.joints[0].a);
+    assert_eq!(s.joints[1].b, s.joints[0].b);
+    assert!(matches!(
+        s.joints[1].kind,
+        JointKind::DriveAngle { joint: 0, .. }
+    ));
+    // The slide counts from the initial configuration: f(0) = 0.3 m.
+    let JointKind::DriveDisplacement {
+        joint: 2,
+        displacement,
+    } = &s.joints[3].kind
+    else {
+        panic!()
+    };
+    assert!(close(mbdc_runtime::fn1::value(displacement, 1.0), 0.4));
+}
+
+#[test]
+fn meshes_and_sets() {
+    let s = scene(&model(
+        "material alu { E 70 GPa; nu 0.33; rho 2700 kg/m^3 }\n mesh p {\n element tri3, plane_strain\n thickness 1 cm\n generate rect(origin: (0, 0) m, size: (2, 1) m, divisions: (4, 2))\n material alu\n set left = nodes(x == 0)\n set top = nodes(y >= 1 m)\n fix left\n displace top, (free, 1 mm * t / 1 s)\n traction top, (0, 1 kPa)\n }\n mesh h {\n element tet4\n generate box(origin: (0, 0, 0) m, size: (1, 1, 1) m, divisions: (2, 2, 2))\n material alu\n set base = nodes(z == 0)\n fix base\n body_force (0, 0, -26487) N/m^3\n }",
+    ));
+    let p = &s.meshes[0];
+    assert_eq!(p.nodes.len(), 15);
+    assert_eq!(p.elements.len(), 16);
+    assert_eq!(p.node_sets[0].nodes, vec![0, 5, 10]);
+    assert_eq!(p.node_sets[0].faces.len(), 2);
+    assert_eq!(p.node_sets[1].nodes, vec![10, 11, 12, 13, 14]);
+    assert_eq!(p.node_sets[1].faces.len(), 4);
+    match &p.conditions[1] {
+        MeshCondition::Displacement { set: 1, value } => {
+            assert!(value[0].is_none() && value[1].is_some());
+        }
+        c => panic!("{c:?}"),
+    }
+    let h = &s.meshes[1];
+    assert_eq!(h.elements.len(), 48);
+    assert_eq!(h.node_sets[0].faces.len(), 8);
+}
+
+#[test]
+fn beams_subdivide_and_attach() {
+    let s = scene(&model(
+        "material steel { E 210 GPa; nu 0.3; rho 7850 kg/m^3 }\n body hub { mass 1 kg; inertia sphere(radius: 5 cm); position (1, 1, 0) m }\n beam l {\n points [(0, 0, 0) m, (1, 0, 0) m, (1, 1, 0) m]\n elements 4\n material steel\n shape tube(outer: 2 cm, inner: 1 cm)\n clamp start\n pin end, hub @ (0, 0, 0)\n }",
+    ));
+    let b = &s.beams[0];
+    assert_eq!(b.nodes.len(), 5);
+    assert_eq!(b.nodes[2], [1.0, 0.0, 0.0]);
+    assert_eq!(b.up, [0.0, 0.0, 1.0]);
+    assert_eq!(b.attachments.len(), 2);
+    assert!(b.attachments[0].clamped && !b.attachments[1].clamped);
+    assert_eq!(b.attachments[1].node, 4);
+    assert_eq!(b.attachments[1].to.body, BodyRef::Body(0));
+}
