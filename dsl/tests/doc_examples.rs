@@ -27,14 +27,3 @@ fn every_mbd_block_of_the_language_reference_parses_and_formats() {
         common::check_format_roundtrip(src, &file);
     }
 }
-
-#[test]
-fn formatted_reference_examples_snapshot() {
-    let mut all = String::new();
-    for (line, src) in common::doc_examples() {
-        let file = common::parse_ok(&src);
-        all.push_str(&format!("// ---- docs/language.md:{line}\n"));
-        all.push_str(&mbdc_dsl::format(&file));
-    }
-    insta::assert_snapshot!(all);
-}
