@@ -28,6 +28,8 @@ enum Command {
     Check(commands::check::Args),
     /// Format .mbd files in place (or check that they are formatted).
     Fmt(commands::fmt::Args),
+    /// Simulate a scene and write its output folder (CSV time series, summary.json).
+    Run(commands::run::Args),
 }
 
 fn main() -> ExitCode {
@@ -35,5 +37,6 @@ fn main() -> ExitCode {
     match cli.command {
         Command::Check(a) => commands::check::run(a),
         Command::Fmt(a) => commands::fmt::run(a),
+        Command::Run(a) => commands::run::run(a),
     }
 }

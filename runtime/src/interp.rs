@@ -770,6 +770,15 @@ impl Interp {
     }
 
     /// The scene's name.
+    /// Replace the initial state (e.g. by an assembled one, [`crate::assemble`]).
+    ///
+    /// # Panics
+    /// If the slices do not have one entry per body.
+    pub fn set_initial_state(&mut self, pose: &[Pose], twist: &[Twist]) {
+        self.pose0.copy_from_slice(pose);
+        self.twist0.copy_from_slice(twist);
+    }
+
     pub fn name(&self) -> &str {
         &self.name
     }

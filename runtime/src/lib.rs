@@ -14,6 +14,7 @@
 //! `System` from a `Scene`), the integrators and `run` (advance a `System` and stream
 //! frames to writers), `output` (CSV and `summary.json`).
 
+pub mod assemble;
 pub mod contact;
 pub mod energy;
 pub mod fn1;

@@ -105,31 +105,20 @@ pub trait Observer {
     fn notice(&mut self, _message: &str) {}
 }
 
-/// Why a run stopped early.
-#[derive(Clone, Debug, PartialEq, serde::Serialize)]
-pub struct Failure {
-    /// Simulated time of the last good state, s.
-    pub time: f64,
-    /// Step number at which it went wrong.
-    pub step: u64,
-    /// The body or joint where it started (or "system").
-    pub location: String,
-    /// The quantity that went wrong.
-    pub quantity: String,
-    /// Its value.
-    pub value: f64,
-    /// The likely cause.
-    pub cause: String,
-    /// What to try.
-    pub hint: String,
-}
+pub use crate::output::Failure;
 
 impl std::fmt::Display for Failure {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         write!(
             f,
             "at t = {:.6} s (step {}), {} of {} = {:.3e}: {}. {}",
-            self.time, self.step, self.quantity, self.location, self.value, self.cause, self.hint
+            self.time,
+            self.step,
+            self.quantity,
+            self.location,
+            self.value,
+            self.cause,
+            self.hint.as_deref().unwrap_or("")
         )
     }
 }
@@ -263,7 +252,7 @@ pub fn run<S: System>(sys: &S, cfg: &RunConfig, obs: &mut dyn Observer) -> RunRe
                     quantity: "start".into(),
                     value: f64::NAN,
                     cause: e.to_string(),
-                    hint: "choose another method with --method".into(),
+                    hint: Some("choose another method with --method".into()),
                 });
                 break;
             }
@@ -418,7 +407,7 @@ fn nonfinite<S: System>(sys: &S, st: &State, step: u64, h: f64) -> Option<Failur
                 quantity: "state (position, orientation or velocity)".into(),
                 value: if bad.is_finite() { bad } else { f64::NAN },
                 cause: "the state became NaN or infinite: the step is probably above the explicit stability limit (h·ω_max ≤ 2), or a force or constraint is singular here".into(),
-                hint: format!("reduce the step (now {h:.3e} s; try --on-failure=halve-step), or use method implicit_trapezoid for stiff elements"),
+                hint: Some(format!("reduce the step (now {h:.3e} s; try --on-failure=halve-step), or use method implicit_trapezoid for stiff elements")),
             });
         }
     }
@@ -432,7 +421,7 @@ fn nonfinite<S: System>(sys: &S, st: &State, step: u64, h: f64) -> Option<Failur
                 quantity: "constraint force λ".into(),
                 value: *l,
                 cause: "the constraint force became NaN or infinite: the constraint matrix is singular here (links that line up, redundant joints)".into(),
-                hint: "use method staggered (robust to singular B M⁻¹ Bᵀ), or check the joints for redundancy with mbdc check".into(),
+                hint: Some("use method staggered (robust to singular B M⁻¹ Bᵀ), or check the joints for redundancy with mbdc check".into()),
             });
         }
     }
@@ -464,7 +453,7 @@ fn check<S: System>(
                 quantity: "constraint violation |Φ|".into(),
                 value: *v,
                 cause: "the constraint drifted beyond the tolerance: the constraint forces could not hold the joint (singular configuration, inconsistent initial state, or a step too large for the method)".into(),
-                hint: format!("reduce the step (now {h:.3e} s), run with --assemble to start from a consistent state, or use method staggered"),
+                hint: Some(format!("reduce the step (now {h:.3e} s), run with --assemble to start from a consistent state, or use method staggered")),
             });
         }
     }
@@ -494,7 +483,7 @@ fn check<S: System>(
                 quantity: "relative energy growth".into(),
                 value: growth,
                 cause: "energy grows although the scene has no energy source: the integration is unstable (step above the stability limit, or stiff springs or fast spin for an explicit method)".into(),
-                hint: format!("reduce the step (now {h:.3e} s) or use method implicit_trapezoid"),
+                hint: Some(format!("reduce the step (now {h:.3e} s) or use method implicit_trapezoid")),
             });
         }
     }
@@ -536,7 +525,7 @@ fn step_failure<S: System>(sys: &S, e: &StepError, t: f64, step: u64, h: f64) ->
         quantity,
         value,
         cause,
-        hint,
+        hint: Some(hint),
     }
 }
 
@@ -598,7 +587,7 @@ mod tests {
             f.location.contains("pivot") || f.location.contains("rod"),
             "{f}"
         );
-        assert!(f.hint.contains("step"), "{f}");
+        assert!(f.hint.as_deref().unwrap_or("").contains("step"), "{f}");
         cfg.on_failure = OnFailure::HalveStep(8);
         let mut obs = Count(0, vec![]);
         let r = run(&sys, &cfg, &mut obs);
@@ -606,4 +595,92 @@ mod tests {
         assert!(r.retries > 0 && !obs.1.is_empty());
         assert!(obs.1[0].contains("halved"));
     }
+}
+
+/// Streams the frames of a run into an [`crate::output::OutputWriter`] and forwards
+/// progress and notices to another observer (a progress bar). A write error is kept and the
+/// run continues in memory; [`run_to_dir`] reports it at the end.
+struct ToWriter<'a> {
+    writer: crate::output::OutputWriter,
+    inner: &'a mut dyn Observer,
+    error: Option<crate::output::OutputError>,
+}
+
+impl Observer for ToWriter<'_> {
+    fn frame(&mut self, f: &Frame<'_>) {
+        if self.error.is_some() {
+            return;
+        }
+        let mut out = self.writer.frame();
+        out.step = f.step;
+        out.t = f.state.t;
+        out.poses.copy_from_slice(&f.state.pose);
+        out.twists.copy_from_slice(&f.state.twist);
+        out.kinetic = f.kinetic;
+        out.potential = f.potential;
+        out.momentum = f.momentum;
+        out.angular_momentum = f.angular_momentum;
+        out.violation.copy_from_slice(f.violation);
+        out.velocity_violation.copy_from_slice(f.velocity_violation);
+        out.lambda.copy_from_slice(&f.state.lambda);
+        if let Err(e) = self.writer.submit(out) {
+            self.error = Some(e);
+        }
+        self.inner.frame(f);
+    }
+    fn progress(&mut self, t: f64) {
+        self.inner.progress(t);
+    }
+    fn notice(&mut self, m: &str) {
+        self.inner.notice(m);
+    }
+}
+
+/// Run `sys` and write its output folder (`bodies.csv`, `energy.csv`, `constraints.csv` as
+/// `spec` asks, and `summary.json`, also when the run fails). Frames are written while the
+/// run proceeds, so a run that is stopped keeps everything up to its last frame.
+pub fn run_to_dir<S: System>(
+    sys: &S,
+    cfg: &RunConfig,
+    meta: crate::output::RunMeta,
+    spec: &crate::scene::OutputSpec,
+    dir: &std::path::Path,
+    progress: &mut dyn Observer,
+) -> Result<(RunReport, crate::output::Summary), crate::output::OutputError> {
+    let writer = crate::output::OutputWriter::create(dir, sys.layout(), spec, meta.clone())?;
+    let mut obs = ToWriter {
+        writer,
+        inner: progress,
+        error: None,
+    };
+    let t0 = std::time::Instant::now();
+    let report = run(sys, cfg, &mut obs);
+    let mut summary = crate::output::Summary::started(&meta);
+    summary.step = report.step;
+    summary.steps = report.steps;
+    summary.final_time = report.t_end;
+    summary.wall_time = t0.elapsed().as_secs_f64();
+    summary.finished = report.finished;
+    summary.failure = report.failure.clone();
+    summary.max_constraint_violation = Some(report.max_violation.0);
+    summary.max_violation_joint =
+        (!report.max_violation.1.is_empty()).then(|| report.max_violation.1.clone());
+    summary.max_energy_drift = Some(report.max_energy_drift);
+    for (k, v) in &report.stats {
+        let value = serde_json::Number::from_f64(*v).map_or_else(
+            || serde_json::Value::String(v.to_string()),
+            serde_json::Value::Number,
+        );
+        summary.extra.insert(k.clone(), value);
+    }
+    summary
+        .extra
+        .insert("retries".into(), report.retries.into());
+    let ToWriter { writer, error, .. } = obs;
+    if let Some(e) = error {
+        let _ = writer.finish(&summary);
+        return Err(e);
+    }
+    let summary = writer.finish(&summary)?;
+    Ok((report, summary))
 }

@@ -1,0 +1,323 @@
+//! `mbdc run FILE`: simulate a scene and write its output folder.
+//!
+//! The interpreter path ([`mbdc_runtime::interp::Interp`]) is used with `--interp`. The run
+//! streams `bodies.csv`, `energy.csv`, `constraints.csv` and `summary.json` into the output
+//! folder as it proceeds, shows a progress bar when the run takes longer than a second, and
+//! ends with a summary (steps, wall time, constraint violation, energy drift) or a failure
+//! report that says where and why.
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::time::{Duration, Instant};
+
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use mbdc_compiler::Override;
+use mbdc_runtime::interp::Interp;
+use mbdc_runtime::output::{RunMeta, Summary};
+use mbdc_runtime::run::{self, Frame, Observer, OnFailure, RunConfig, Watchdog};
+use mbdc_runtime::scene::{MethodSpec, Scene};
+use mbdc_runtime::system::System;
+
+use crate::render;
+
+/// What to do when a run fails.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum FailurePolicy {
+    /// Stop and report.
+    Stop,
+    /// Retry from the last good frame with half the step (up to 10 times).
+    HalveStep,
+}
+
+/// Arguments of `mbdc run`.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// The .mbd file.
+    pub file: PathBuf,
+    /// Override a parameter: `--set L=2m` (repeatable).
+    #[arg(long = "set", value_name = "NAME=VALUE", value_parser = parse_override)]
+    pub set: Vec<Override>,
+    /// Integration method (default: the scene's `simulate { method }`, else staggered).
+    #[arg(long, value_parser = clap::builder::PossibleValuesParser::new(MethodSpec::NAMES))]
+    pub method: Option<String>,
+    /// Time step in seconds (default: the scene's).
+    #[arg(long, value_name = "SECONDS")]
+    pub step: Option<f64>,
+    /// Duration in seconds (default: the scene's).
+    #[arg(long, value_name = "SECONDS")]
+    pub duration: Option<f64>,
+    /// Write a frame every N steps (default: the scene's output setting).
+    #[arg(long, value_name = "N")]
+    pub every: Option<u32>,
+    /// Output folder (default: `out/<model name>`).
+    #[arg(short = 'o', long = "out", value_name = "DIR")]
+    pub out: Option<PathBuf>,
+    /// Use the interpreter.
+    #[arg(long)]
+    pub interp: bool,
+    /// Move the initial state onto the constraints before running, and report what moved.
+    #[arg(long)]
+    pub assemble: bool,
+    /// What to do when the run fails.
+    #[arg(long, value_enum, default_value_t = FailurePolicy::Stop)]
+    pub on_failure: FailurePolicy,
+    /// No progress bar and no summary (errors are still printed).
+    #[arg(short, long)]
+    pub quiet: bool,
+}
+
+fn parse_override(s: &str) -> Result<Override, String> {
+    s.parse()
+}
+
+/// The scene with the command-line settings applied, or diagnostics rendered.
+pub fn load(file: &std::path::Path, set: &[Override]) -> Result<Scene, ExitCode> {
+    let loaded = mbdc_compiler::load_file(file, set);
+    if !loaded.diagnostics.is_empty() {
+        eprint!(
+            "{}",
+            render::diagnostics(&loaded.diagnostics, &loaded.sources)
+        );
+    }
+    loaded.scene.ok_or_else(|| {
+        eprintln!(
+            "{}: {}",
+            file.display(),
+            render::counts(&loaded.diagnostics)
+        );
+        ExitCode::FAILURE
+    })
+}
+
+/// The run settings from the scene and the arguments.
+pub fn config<S: System>(sys: &S, scene: &Scene, args: &Args) -> Result<RunConfig, String> {
+    let method = match &args.method {
+        Some(name) if name != scene.simulate.method.name() => {
+            MethodSpec::default_for(name).ok_or_else(|| format!("unknown method `{name}`"))?
+        }
+        _ => scene.simulate.method.clone(),
+    };
+    let step = args.step.unwrap_or(scene.simulate.step);
+    let duration = args.duration.unwrap_or(scene.simulate.duration);
+    if !(step > 0.0 && step.is_finite()) {
+        return Err(format!("the step must be positive, got {step}"));
+    }
+    if !(duration >= 0.0 && duration.is_finite()) {
+        return Err(format!("the duration must be non-negative, got {duration}"));
+    }
+    let e = scene.effects();
+    let sources = e.applied_forces || e.drivers || e.nonholonomic || e.contact || e.time_dependence;
+    Ok(RunConfig {
+        duration,
+        step,
+        method,
+        every: args.every.unwrap_or(scene.simulate.output.every).max(1),
+        on_failure: match args.on_failure {
+            FailurePolicy::Stop => OnFailure::Stop,
+            FailurePolicy::HalveStep => OnFailure::HalveStep(10),
+        },
+        watchdog: Watchdog::for_scale(run::length_scale(sys), sources),
+    })
+}
+
+/// A progress bar that appears once a run has taken more than a second.
+pub struct Progress {
+    bar: Option<ProgressBar>,
+    start: Instant,
+    duration: f64,
+    shown: bool,
+}
+
+impl Progress {
+    /// A progress observer for a run of `duration` simulated seconds (none if `quiet`).
+    pub fn new(duration: f64, quiet: bool) -> Progress {
+        let bar = (!quiet).then(|| {
+            let b = ProgressBar::with_draw_target(Some(1000), ProgressDrawTarget::hidden());
+            b.set_style(
+                ProgressStyle::with_template(
+                    "{spinner} [{elapsed_precise}] {wide_bar} {msg} (eta {eta})",
+                )
+                .unwrap_or_else(|_| ProgressStyle::default_bar()),
+            );
+            b
+        });
+        Progress {
+            bar,
+            start: Instant::now(),
+            duration,
+            shown: false,
+        }
+    }
+
+    /// Remove the bar.
+    pub fn finish(&self) {
+        if let Some(b) = &self.bar {
+            b.finish_and_clear();
+        }
+    }
+}
+
+impl Observer for Progress {
+    fn frame(&mut self, _f: &Frame<'_>) {}
+    fn progress(&mut self, t: f64) {
+        let Some(b) = &self.bar else { return };
+        if !self.shown && self.start.elapsed() > Duration::from_secs(1) {
+            b.set_draw_target(ProgressDrawTarget::stderr());
+            self.shown = true;
+        }
+        let frac = if self.duration > 0.0 {
+            (t / self.duration).clamp(0.0, 1.0)
+        } else {
+            1.0
+        };
+        b.set_position((frac * 1000.0) as u64);
+        b.set_message(format!("t = {t:.4} s"));
+    }
+    fn notice(&mut self, m: &str) {
+        match &self.bar {
+            Some(b) => b.suspend(|| eprintln!("note: {m}")),
+            None => eprintln!("note: {m}"),
+        }
+    }
+}
+
+/// Runs `mbdc run`.
+pub fn run(args: Args) -> ExitCode {
+    let scene = match load(&args.file, &args.set) {
+        Ok(s) => s,
+        Err(code) => return code,
+    };
+    let mut sys = match Interp::new(&scene) {
+        Ok(s) => s,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return ExitCode::FAILURE;
+        }
+    };
+    if args.assemble {
+        match assemble(&mut sys, args.quiet) {
+            Ok(()) => {}
+            Err(code) => return code,
+        }
+    }
+    simulate(&sys, &scene, &args)
+}
+
+fn assemble(sys: &mut Interp, quiet: bool) -> Result<(), ExitCode> {
+    let mut st = mbdc_runtime::integrators::State::initial(&*sys);
+    match mbdc_runtime::assemble::assemble(&*sys, &mut st.pose, &mut st.twist) {
+        Ok(a) => {
+            if !quiet {
+                eprintln!(
+                    "assembled in {} iteration(s): violation {:.3e} → {:.3e}, velocity residual {:.3e} → {:.3e}",
+                    a.iterations, a.residual.0, a.residual.1, a.velocity_residual.0, a.velocity_residual.1
+                );
+                for m in &a.moved {
+                    eprintln!(
+                        "  moved {:<16} by {:.3e} m and {:.3e} rad; velocity changed by {:.3e} m/s and {:.3e} rad/s",
+                        m.body, m.translation, m.rotation, m.velocity, m.angular_velocity
+                    );
+                }
+            }
+            sys.set_initial_state(&st.pose, &st.twist);
+            Ok(())
+        }
+        Err(e) => {
+            eprintln!("error: {e}\n  help: check the joints' points and axes; `mbdc check` lists each joint's violation at t = 0");
+            Err(ExitCode::FAILURE)
+        }
+    }
+}
+
+/// Run a system and write the output folder, printing the summary; shared by the
+/// interpreter path and (through the generated program) the compiled path.
+pub fn simulate<S: System>(sys: &S, scene: &Scene, args: &Args) -> ExitCode {
+    let cfg = match config(sys, scene, args) {
+        Ok(c) => c,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return ExitCode::FAILURE;
+        }
+    };
+    let dir = args
+        .out
+        .clone()
+        .unwrap_or_else(|| PathBuf::from("out").join(&scene.name));
+    let meta = RunMeta {
+        model: scene.name.clone(),
+        method: cfg.method.name().into(),
+        step: cfg.step,
+        duration: cfg.duration,
+    };
+    let mut progress = Progress::new(cfg.duration, args.quiet);
+    let result = run::run_to_dir(sys, &cfg, meta, &scene.simulate.output, &dir, &mut progress);
+    progress.finish();
+    match result {
+        Ok((report, summary)) => {
+            if !args.quiet || report.failure.is_some() {
+                print_summary(&summary, &dir);
+            }
+            if report.finished {
+                ExitCode::SUCCESS
+            } else {
+                ExitCode::FAILURE
+            }
+        }
+        Err(e) => {
+            eprintln!("error: writing the output folder {}: {e}", dir.display());
+            ExitCode::FAILURE
+        }
+    }
+}
+
+/// The end-of-run summary on the terminal.
+pub fn print_summary(s: &Summary, dir: &std::path::Path) {
+    let status = if s.finished { "finished" } else { "STOPPED" };
+    println!(
+        "{} — {} with {} (h = {:.3e} s)",
+        s.model, status, s.method, s.step
+    );
+    println!(
+        "  {} steps to t = {:.6} s in {:.3} s wall time ({:.3} µs/step)",
+        s.steps,
+        s.final_time,
+        s.wall_time,
+        if s.steps > 0 {
+            s.wall_time / s.steps as f64 * 1e6
+        } else {
+            0.0
+        }
+    );
+    if let Some(v) = s.max_constraint_violation {
+        let at = s
+            .max_violation_joint
+            .as_deref()
+            .map(|j| format!(" (joint {j})"))
+            .unwrap_or_default();
+        println!("  max constraint violation {v:.3e}{at}");
+    }
+    if let Some(d) = s.max_energy_drift {
+        println!("  max relative energy drift {d:.3e}");
+    }
+    for (k, v) in &s.extra {
+        println!("  {k}: {v}");
+    }
+    if let Some(f) = &s.failure {
+        eprintln!(
+            "error: the run stopped at t = {:.6} s (step {}) at {}",
+            f.time, f.step, f.location
+        );
+        eprintln!("  {} = {:.3e}", f.quantity, f.value);
+        eprintln!("  cause: {}", f.cause);
+        if let Some(h) = &f.hint {
+            eprintln!("  help: {h}");
+        }
+        eprintln!(
+            "  every frame up to t = {:.6} s is in {}",
+            f.time,
+            dir.display()
+        );
+    } else {
+        println!("  output: {}", dir.display());
+    }
+}
