@@ -529,74 +529,6 @@ fn step_failure<S: System>(sys: &S, e: &StepError, t: f64, step: u64, h: f64) ->
     }
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::integrators::testsys::RodPendulum;
-    use crate::scene::StaggeredOptions;
-
-    struct Count(usize, Vec<String>);
-    impl Observer for Count {
-        fn frame(&mut self, _f: &Frame<'_>) {
-            self.0 += 1;
-        }
-        fn notice(&mut self, m: &str) {
-            self.1.push(m.to_string());
-        }
-    }
-
-    #[test]
-    fn runs_to_the_end_with_frames() {
-        let sys = RodPendulum::new(1.0, 1.0, 0.01, 1.0);
-        let cfg = RunConfig {
-            duration: 1.0,
-            step: 1e-3,
-            method: MethodSpec::Staggered(StaggeredOptions::default()),
-            every: 10,
-            on_failure: OnFailure::Stop,
-            watchdog: Watchdog::for_scale(1.0, false),
-        };
-        let mut obs = Count(0, vec![]);
-        let r = run(&sys, &cfg, &mut obs);
-        assert!(r.finished, "{:?}", r.failure);
-        assert_eq!(obs.0, 101);
-        assert!((r.t_end - 1.0).abs() < 1e-12);
-        assert!(r.max_violation.0 < 1e-10);
-        assert!(r.max_energy_drift < 1e-4, "{}", r.max_energy_drift);
-    }
-
-    #[test]
-    fn penalty_with_a_tiny_epsilon_blows_up_and_is_reported_then_halving_rescues_it() {
-        // penalty frequency sqrt(K/ε)·h ≫ 2: unstable; the watchdog must name the joint or body
-        let sys = RodPendulum::new(1.0, 1.0, 0.01, 1.0);
-        let mut cfg = RunConfig {
-            duration: 0.5,
-            step: 1e-3,
-            method: MethodSpec::Penalty {
-                epsilon: Some(1e-9),
-            },
-            every: 10,
-            on_failure: OnFailure::Stop,
-            watchdog: Watchdog::for_scale(1.0, false),
-        };
-        let mut obs = Count(0, vec![]);
-        let r = run(&sys, &cfg, &mut obs);
-        let f = r.failure.expect("must fail");
-        assert!(!r.finished);
-        assert!(
-            f.location.contains("pivot") || f.location.contains("rod"),
-            "{f}"
-        );
-        assert!(f.hint.as_deref().unwrap_or("").contains("step"), "{f}");
-        cfg.on_failure = OnFailure::HalveStep(8);
-        let mut obs = Count(0, vec![]);
-        let r = run(&sys, &cfg, &mut obs);
-        assert!(r.finished, "{:?}", r.failure);
-        assert!(r.retries > 0 && !obs.1.is_empty());
-        assert!(obs.1[0].contains("halved"));
-    }
-}
-
 /// Streams the frames of a run into an [`crate::output::OutputWriter`] and forwards
 /// progress and notices to another observer (a progress bar). A write error is kept and the
 /// run continues in memory; [`run_to_dir`] reports it at the end.
@@ -683,4 +615,72 @@ pub fn run_to_dir<S: System>(
     }
     let summary = writer.finish(&summary)?;
     Ok((report, summary))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::integrators::testsys::RodPendulum;
+    use crate::scene::StaggeredOptions;
+
+    struct Count(usize, Vec<String>);
+    impl Observer for Count {
+        fn frame(&mut self, _f: &Frame<'_>) {
+            self.0 += 1;
+        }
+        fn notice(&mut self, m: &str) {
+            self.1.push(m.to_string());
+        }
+    }
+
+    #[test]
+    fn runs_to_the_end_with_frames() {
+        let sys = RodPendulum::new(1.0, 1.0, 0.01, 1.0);
+        let cfg = RunConfig {
+            duration: 1.0,
+            step: 1e-3,
+            method: MethodSpec::Staggered(StaggeredOptions::default()),
+            every: 10,
+            on_failure: OnFailure::Stop,
+            watchdog: Watchdog::for_scale(1.0, false),
+        };
+        let mut obs = Count(0, vec![]);
+        let r = run(&sys, &cfg, &mut obs);
+        assert!(r.finished, "{:?}", r.failure);
+        assert_eq!(obs.0, 101);
+        assert!((r.t_end - 1.0).abs() < 1e-12);
+        assert!(r.max_violation.0 < 1e-10);
+        assert!(r.max_energy_drift < 1e-4, "{}", r.max_energy_drift);
+    }
+
+    #[test]
+    fn penalty_with_a_tiny_epsilon_blows_up_and_is_reported_then_halving_rescues_it() {
+        // penalty frequency sqrt(K/ε)·h ≫ 2: unstable; the watchdog must name the joint or body
+        let sys = RodPendulum::new(1.0, 1.0, 0.01, 1.0);
+        let mut cfg = RunConfig {
+            duration: 0.5,
+            step: 1e-3,
+            method: MethodSpec::Penalty {
+                epsilon: Some(1e-9),
+            },
+            every: 10,
+            on_failure: OnFailure::Stop,
+            watchdog: Watchdog::for_scale(1.0, false),
+        };
+        let mut obs = Count(0, vec![]);
+        let r = run(&sys, &cfg, &mut obs);
+        let f = r.failure.expect("must fail");
+        assert!(!r.finished);
+        assert!(
+            f.location.contains("pivot") || f.location.contains("rod"),
+            "{f}"
+        );
+        assert!(f.hint.as_deref().unwrap_or("").contains("step"), "{f}");
+        cfg.on_failure = OnFailure::HalveStep(8);
+        let mut obs = Count(0, vec![]);
+        let r = run(&sys, &cfg, &mut obs);
+        assert!(r.finished, "{:?}", r.failure);
+        assert!(r.retries > 0 && !obs.1.is_empty());
+        assert!(obs.1[0].contains("halved"));
+    }
 }
