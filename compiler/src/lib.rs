@@ -43,6 +43,8 @@
 //! construct), `geom` (rotations, frames, inertia formulas), `kinematics` (constraint
 //! residuals at t = 0), `validate` (post-lowering checks), `summary`.
 
+#![warn(missing_docs)]
+
 pub mod diag;
 pub mod env;
 pub mod eval;

@@ -1,0 +1,141 @@
+//! End-to-end runs of the `mbdc` binary: check and fmt.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn mbdc() -> Command {
+    let mut c = Command::new(env!("CARGO_BIN_EXE_mbdc"));
+    c.env("NO_COLOR", "1");
+    c
+}
+
+fn root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
+}
+
+fn tmp(name: &str, text: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("mbdc-cli-test-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let p = dir.join(name);
+    std::fs::write(&p, text).expect("write");
+    p
+}
+
+#[test]
+fn check_prints_a_summary() {
+    let out = mbdc()
+        .arg("check")
+        .arg(root().join("models/slider_crank.mbd"))
+        .output()
+        .expect("runs");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let s = String::from_utf8_lossy(&out.stdout);
+    assert!(s.contains("model slider_crank"), "{s}");
+    assert!(s.contains("DOF          1"), "{s}");
+    assert!(s.contains("Jacobian rank 17 of 17"), "{s}");
+    assert!(s.contains("staggered (epsilon 1e-6"), "{s}");
+}
+
+#[test]
+fn check_with_overrides_effects_and_json() {
+    let out = mbdc()
+        .args(["check", "--set", "N=3", "--effects"])
+        .arg(root().join("models/chain.mbd"))
+        .output()
+        .expect("runs");
+    assert!(out.status.success());
+    let s = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        s.contains("bodies       3: link[0], link[1], link[2]"),
+        "{s}"
+    );
+    assert!(s.contains("N = 3 (set)"), "{s}");
+    assert!(
+        s.contains("gravity          yes") && s.contains("contact          no"),
+        "{s}"
+    );
+
+    let out = mbdc()
+        .args(["check", "--json"])
+        .arg(root().join("models/torque_free.mbd"))
+        .output()
+        .expect("runs");
+    assert!(out.status.success());
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("json");
+    assert_eq!(v["name"], "torque_free");
+    assert_eq!(v["bodies"][0]["angular_velocity"][1], 2.0);
+
+    let out = mbdc()
+        .args(["check", "--set", "M=3"])
+        .arg(root().join("models/chain.mbd"))
+        .output()
+        .expect("runs");
+    assert!(!out.status.success());
+    let e = String::from_utf8_lossy(&out.stderr);
+    assert!(e.contains("there is no parameter `M`"), "{e}");
+}
+
+#[test]
+fn check_fails_with_rendered_diagnostics() {
+    let out = mbdc()
+        .arg("check")
+        .arg(root().join("tests/failures/unknown_body.mbd"))
+        .output()
+        .expect("runs");
+    assert!(!out.status.success());
+    let e = String::from_utf8_lossy(&out.stderr);
+    assert!(e.contains("unknown body `rdo1`"), "{e}");
+    assert!(e.contains("did you mean `rod1`?"), "{e}");
+    assert!(e.contains("unknown_body.mbd:4:47"), "{e}");
+    assert!(e.contains("1 error"), "{e}");
+    let out = mbdc()
+        .arg("check")
+        .arg("no/such/file.mbd")
+        .output()
+        .expect("runs");
+    assert!(!out.status.success());
+}
+
+#[test]
+fn fmt_rewrites_and_checks() {
+    let messy = "model m {\n  body b { mass 1 kg ;inertia sphere( radius:1 cm ) }\n  simulate { duration 1 s; step 1 ms }\n}\n";
+    let p = tmp("messy.mbd", messy);
+    let out = mbdc()
+        .args(["fmt", "--check"])
+        .arg(&p)
+        .output()
+        .expect("runs");
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stdout).contains("messy.mbd"));
+    assert_eq!(
+        std::fs::read_to_string(&p).unwrap(),
+        messy,
+        "--check must not write"
+    );
+    let out = mbdc().arg("fmt").arg(&p).output().expect("runs");
+    assert!(out.status.success());
+    let formatted = std::fs::read_to_string(&p).unwrap();
+    assert_ne!(formatted, messy);
+    let out = mbdc()
+        .args(["fmt", "--check"])
+        .arg(&p)
+        .output()
+        .expect("runs");
+    assert!(out.status.success(), "formatted file is not stable");
+    // The formatted file still checks.
+    let out = mbdc().arg("check").arg(&p).output().expect("runs");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    // A file that does not parse is an error, and is left alone.
+    let bad = tmp("bad.mbd", "model m {\n");
+    let out = mbdc().arg("fmt").arg(&bad).output().expect("runs");
+    assert!(!out.status.success());
+    assert_eq!(std::fs::read_to_string(&bad).unwrap(), "model m {\n");
+}
