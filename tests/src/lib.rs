@@ -1,1 +1,164 @@
-//! Workspace-level tests live in `tests/`; this library is empty.
+//! Helpers for the workspace-level tests: load a scene, run it in memory with any method,
+//! and keep every output frame for checks against closed forms and papers.
+
+use mbdc_runtime::interp::Interp;
+use mbdc_runtime::run::{self, Frame, Observer, OnFailure, RunConfig, RunReport, Watchdog};
+use mbdc_runtime::scene::{MethodSpec, Scene};
+use mbdc_runtime::system::{Pose, Twist};
+
+/// Path of a file in the repository's `models/` folder.
+pub fn model_path(name: &str) -> String {
+    format!("{}/../models/{name}", env!("CARGO_MANIFEST_DIR"))
+}
+
+/// Lower a model file (panics with the rendered diagnostics if it has errors).
+pub fn load_model(name: &str) -> Scene {
+    let loaded = mbdc_compiler::load_file(model_path(name), &[]);
+    match loaded.scene {
+        Some(s) => s,
+        None => panic!(
+            "{name}: {}",
+            loaded
+                .diagnostics
+                .iter()
+                .map(|d| d.render_plain(&loaded.sources))
+                .collect::<String>()
+        ),
+    }
+}
+
+/// Lower `.mbd` text (panics with the rendered diagnostics if it has errors).
+pub fn load_text(text: &str) -> Scene {
+    let loaded = mbdc_compiler::load_str("test.mbd", text, &[]);
+    match loaded.scene {
+        Some(s) => s,
+        None => panic!(
+            "{}",
+            loaded
+                .diagnostics
+                .iter()
+                .map(|d| d.render_plain(&loaded.sources))
+                .collect::<String>()
+        ),
+    }
+}
+
+/// One recorded frame.
+#[derive(Clone, Debug)]
+pub struct Rec {
+    /// Time.
+    pub t: f64,
+    /// Poses.
+    pub pose: Vec<Pose>,
+    /// Twists.
+    pub twist: Vec<Twist>,
+    /// Multipliers per row.
+    pub lambda: Vec<f64>,
+    /// Kinetic energy.
+    pub kinetic: f64,
+    /// Potential energy.
+    pub potential: f64,
+    /// Angular momentum (world, about the origin).
+    pub angular_momentum: [f64; 3],
+    /// Per-joint holonomic violation.
+    pub violation: Vec<f64>,
+    /// Per-joint velocity-level residual.
+    pub velocity_violation: Vec<f64>,
+}
+
+impl Rec {
+    /// Total mechanical energy.
+    pub fn energy(&self) -> f64 {
+        self.kinetic + self.potential
+    }
+    /// Largest violation over joints.
+    pub fn max_violation(&self) -> f64 {
+        self.violation.iter().fold(0.0, |a, b| a.max(*b))
+    }
+}
+
+/// A recorded run.
+pub struct Trajectory {
+    /// The frames (the initial state first).
+    pub frames: Vec<Rec>,
+    /// The run's report.
+    pub report: RunReport,
+}
+
+impl Trajectory {
+    /// The last frame.
+    pub fn last(&self) -> &Rec {
+        self.frames.last().expect("at least the initial frame")
+    }
+    /// Largest violation over all frames.
+    pub fn max_violation(&self) -> f64 {
+        self.frames
+            .iter()
+            .fold(0.0, |a, f| a.max(f.max_violation()))
+    }
+    /// Largest |E − E₀| over all frames.
+    pub fn max_energy_error(&self) -> f64 {
+        let e0 = self.frames[0].energy();
+        self.frames
+            .iter()
+            .fold(0.0, |a, f| a.max((f.energy() - e0).abs()))
+    }
+}
+
+struct Recorder(Vec<Rec>);
+
+impl Observer for Recorder {
+    fn frame(&mut self, f: &Frame<'_>) {
+        self.0.push(Rec {
+            t: f.state.t,
+            pose: f.state.pose.clone(),
+            twist: f.state.twist.clone(),
+            lambda: f.state.lambda.clone(),
+            kinetic: f.kinetic,
+            potential: f.potential,
+            angular_momentum: f.angular_momentum,
+            violation: f.violation.to_vec(),
+            velocity_violation: f.velocity_violation.to_vec(),
+        });
+    }
+}
+
+/// Run `scene` through the interpreter with `method` and step `h` for `duration`, keeping a
+/// frame every `every` steps. The watchdog is on (sources assumed, so energy growth is not
+/// checked); a failure ends the trajectory and is in `report.failure`.
+pub fn simulate(
+    scene: &Scene,
+    method: MethodSpec,
+    h: f64,
+    duration: f64,
+    every: u32,
+) -> Trajectory {
+    let sys = Interp::new(scene).expect("interpretable scene");
+    let cfg = RunConfig {
+        duration,
+        step: h,
+        method,
+        every,
+        on_failure: OnFailure::Stop,
+        watchdog: Watchdog::for_scale(run::length_scale(&sys), true),
+    };
+    let mut rec = Recorder(Vec::new());
+    let report = run::run(&sys, &cfg, &mut rec);
+    Trajectory {
+        frames: rec.0,
+        report,
+    }
+}
+
+/// A method by name with its default options.
+pub fn method(name: &str) -> MethodSpec {
+    MethodSpec::default_for(name).expect("known method")
+}
+
+/// Largest distance between the body positions of two frames.
+pub fn position_difference(a: &Rec, b: &Rec) -> f64 {
+    a.pose
+        .iter()
+        .zip(&b.pose)
+        .fold(0.0, |m, (p, q)| m.max((p.r - q.r).norm()))
+}
