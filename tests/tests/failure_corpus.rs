@@ -26,16 +26,32 @@ fn every_failure_is_reported() {
     // repository is.
     std::env::set_current_dir(env!("CARGO_MANIFEST_DIR")).expect("cd");
     let files = corpus();
-    assert!(files.len() >= 40, "expected at least 40 failure files, found {}", files.len());
+    assert!(
+        files.len() >= 40,
+        "expected at least 40 failure files, found {}",
+        files.len()
+    );
     let mut codes = std::collections::BTreeSet::new();
     for f in files {
-        let stem = f.file_stem().and_then(|s| s.to_str()).unwrap_or("?").to_string();
+        let stem = f
+            .file_stem()
+            .and_then(|s| s.to_str())
+            .unwrap_or("?")
+            .to_string();
         let rel = Path::new("failures").join(f.file_name().unwrap_or_default());
         let loaded = mbdc_compiler::load_file(&rel, &[]);
-        assert!(loaded.has_errors(), "{stem}: expected an error, got:\n{}", loaded.render_plain());
+        assert!(
+            loaded.has_errors(),
+            "{stem}: expected an error, got:\n{}",
+            loaded.render_plain()
+        );
         assert!(loaded.scene.is_none(), "{stem}: a scene despite errors");
         for d in loaded.errors() {
-            assert!(!d.labels.is_empty(), "{stem}: error without a span: {}", d.message);
+            assert!(
+                !d.labels.is_empty(),
+                "{stem}: error without a span: {}",
+                d.message
+            );
             codes.insert(d.code);
         }
         let text = loaded.render_plain();
@@ -47,5 +63,9 @@ fn every_failure_is_reported() {
             insta::assert_snapshot!(stem, text);
         });
     }
-    assert!(codes.len() >= 25, "the corpus exercises only {} codes: {codes:?}", codes.len());
+    assert!(
+        codes.len() >= 25,
+        "the corpus exercises only {} codes: {codes:?}",
+        codes.len()
+    );
 }

@@ -24,7 +24,11 @@ fn every_example_checks() {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../docs/language.md");
     let text = std::fs::read_to_string(&path).expect("docs/language.md");
     let examples = blocks(&text);
-    assert!(examples.len() >= 10, "only {} examples found", examples.len());
+    assert!(
+        examples.len() >= 10,
+        "only {} examples found",
+        examples.len()
+    );
     let mut failures = Vec::new();
     for (line, src) in &examples {
         let name = format!("docs/language.md:{line}");
@@ -36,7 +40,15 @@ fn every_example_checks() {
         let file = mbdc_dsl::parse(src).expect("parses");
         let once = mbdc_dsl::format(&file);
         let twice = mbdc_dsl::format(&mbdc_dsl::parse(&once).expect("formatted text parses"));
-        assert_eq!(once, twice, "formatting is not idempotent for the example at line {line}");
+        assert_eq!(
+            once, twice,
+            "formatting is not idempotent for the example at line {line}"
+        );
     }
-    assert!(failures.is_empty(), "{} example(s) do not check:\n{}", failures.len(), failures.join("\n"));
+    assert!(
+        failures.is_empty(),
+        "{} example(s) do not check:\n{}",
+        failures.len(),
+        failures.join("\n")
+    );
 }

@@ -113,7 +113,9 @@ fn runtime_kernels_agree_with_the_check() {
     let mut checked = 0;
     for f in models() {
         let scene = mbdc_compiler::load_file(&f, &[]).scene.expect("a scene");
-        let Ok(sys) = Interp::new(&scene) else { continue };
+        let Ok(sys) = Interp::new(&scene) else {
+            continue;
+        };
         let layout = sys.layout().clone();
         let n = layout.bodies();
         let mut pose = vec![Pose::default(); n];
@@ -139,9 +141,20 @@ fn runtime_kernels_agree_with_the_check() {
                     }
                 }
                 if layout.row_kind[r] == RowKind::Holonomic {
-                    assert!(ev.phi[r].abs() < 1e-12, "{}: joint {} row {r}: Φ = {}", f.display(), j.name, ev.phi[r]);
+                    assert!(
+                        ev.phi[r].abs() < 1e-12,
+                        "{}: joint {} row {r}: Φ = {}",
+                        f.display(),
+                        j.name,
+                        ev.phi[r]
+                    );
                 }
-                assert!(vel.abs() < 1e-9, "{}: joint {} row {r}: Φ̇ = {vel}", f.display(), j.name);
+                assert!(
+                    vel.abs() < 1e-9,
+                    "{}: joint {} row {r}: Φ̇ = {vel}",
+                    f.display(),
+                    j.name
+                );
             }
         }
         // Rank of the runtime's Jacobian (active rows) equals the check's.
