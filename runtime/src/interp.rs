@@ -37,7 +37,8 @@ use crate::joints::{self, JointGeom, JointOut};
 use crate::math::{quat, rotation, vec3};
 use crate::scene::{Attachment, BodyRef, Fn1, ForceFrame, ForceKind, JointKind, Scene, Shape};
 use crate::system::{
-    ConstraintEval, JointLayout, Layout, MassProps, Need, Pose, RowKind, System, Twist, Wrench,
+    ConstraintEval, JointLayout, Layout, MassProps, Need, Pose, RowKind, System, TreeJointKind,
+    Twist, Wrench,
 };
 use nalgebra::{Matrix3, Vector3};
 
@@ -984,6 +985,21 @@ impl System for Interp {
             };
         }
         e
+    }
+
+    fn tree_joint(&self, joint: usize) -> Option<(TreeJointKind, JointGeom)> {
+        let j = self.joints.get(joint)?;
+        let kind = match j.kind {
+            JointImpl::Spherical => TreeJointKind::Spherical,
+            JointImpl::Revolute => TreeJointKind::Revolute,
+            JointImpl::Prismatic => TreeJointKind::Prismatic,
+            JointImpl::Cylindrical => TreeJointKind::Cylindrical,
+            JointImpl::Universal => TreeJointKind::Universal,
+            JointImpl::Fixed => TreeJointKind::Fixed,
+            JointImpl::Planar => TreeJointKind::Planar,
+            _ => return None,
+        };
+        Some((kind, j.geom))
     }
 
     fn update_locks(&self, pose: &[Pose], _twist: &[Twist], active: &mut [bool]) -> Option<usize> {

@@ -14,6 +14,7 @@
 #![allow(clippy::needless_range_loop)]
 
 pub mod common;
+pub mod natural;
 pub mod partitioning;
 pub mod staggered;
 #[cfg(test)]
