@@ -6,6 +6,7 @@
 //! | `coordinate_partitioning` | [`partitioning`] | generalized coordinate partitioning, notes A §1.3 |
 //! | `implicit_trapezoid` | [`trapezoid`] | simultaneous trapezoidal rule with Newton, notes A §1.2 |
 //! | `staggered`, `baumgarte`, `penalty` | [`staggered`] | two-stage CINT with three constraint-force modules, notes A §1.4–1.9, C §3 |
+//! | `natural_partitioning` | [`natural`] | tree null space, Schur-complement PCG, cut joints by staggered stabilization, notes C §1 |
 //!
 //! All integrators are generic over the system, so generated code is monomorphized
 //! into them, and none allocates inside [`Integrator::step`].
@@ -85,9 +86,10 @@ pub fn make<'a, S: System + 'a>(
             *max_iterations,
             start,
         )?),
-        M::NaturalPartitioning { .. } | M::StateTime { .. } => {
-            return Err(StartError::Unsupported(method.name()))
+        M::NaturalPartitioning { epsilon, tolerance } => {
+            Box::new(natural::Natural::new(sys, h, *epsilon, *tolerance, start)?)
         }
+        M::StateTime { .. } => return Err(StartError::Unsupported(method.name())),
     })
 }
 

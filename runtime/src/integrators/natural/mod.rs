@@ -1,5 +1,1247 @@
-//! Natural partitioning (notes C §1): the null space of the spanning tree's constraint
-//! Jacobian built joint by joint, the reduced equations solved through the arrowhead
-//! system's Schur complement, and cut joints by staggered stabilization.
+//! Natural partitioning (notes C §1, Chiou–Park–Farhat): the null space of the spanning
+//! tree's constraint Jacobian built joint by joint, the reduced equations solved through
+//! the Schur complement of the arrowhead system, closed loops by cut joints with the
+//! staggered stabilization, all on the two-stage staggered coordinate integrator.
+//!
+//! ## What is solved
+//!
+//! The layout's tree-eligible joints form a spanning forest ([`tree`], the same as
+//! `mbdc check --topology` prints); every other row (cut joints closing loops, drivers,
+//! distance, curve, rolling, point-velocity rows, locks) is a *cut row*, `B_c`. With the
+//! tree null space `u̇ = A q̇` ([`kin`]: per joint `u_c = X u_p + S q̇`, the dependent
+//! translational blocks `B^d = ∓I` inverted analytically), the equations of motion
+//! `M ü + B_tᵀλ_t + B_cᵀλ_c = F` reduce to (notes C eq. 3.4.6, with `ü = A q̈ + Ȧq̇`)
+//!
+//! ```text
+//! AᵀMA q̈ = Aᵀ(F − M Ȧq̇ − B_cᵀ λ_c)
+//! ```
+//!
+//! and the tree multipliers `λ_t` never appear. `AᵀMA` is never formed: [`reduced`] solves
+//! it by the tree-exact `O(N)` block elimination (leaf → root, root → leaf), which is the
+//! preconditioner that makes the Schur-complement PCG of the paper converge in one
+//! iteration on a tree (docs/methods.md has the iteration counts of the alternatives).
+//!
+//! ## Cut rows: staggered stabilization on the reduced system
+//!
+//! `λ_c` comes from the exact-integral form of the staggered stabilization used by the
+//! `staggered` method (see [`super::staggered`]): at each half step, Newton iterations on
+//! `λ_c` until the positions after the coordinate update satisfy
+//! `Φ_c(X(τ + h)) = E(λ_c − λ_c⁰)`. Its matrix is the reduced counterpart of the staggered
+//! `εI + h²BM⁻¹Bᵀ` (notes C §1.6 RECON):
+//!
+//! ```text
+//! S = E + h² (B_c A)(AᵀMA)⁻¹(B_c A)ᵀ,
+//! ```
+//!
+//! dense in general (`(AᵀMA)⁻¹` couples everything in a tree) but cheap to apply: one
+//! tree-exact solve per product. It is solved by PCG, Jacobi-preconditioned; that is where
+//! conjugate gradients are needed once the tree part is solved exactly: the loops couple
+//! branches that the tree solve treats independently. `E` follows the staggered default
+//! rule `E_r = 10⁻⁹ h² K_rr` (`K = B_c M⁻¹ B_cᵀ` at the start) or the user's ε.
+//!
+//! ## Time integration and drift
+//!
+//! The two-stage CINT of the staggered method: two leapfrog sequences offset by h/2; the
+//! sequence whose positions are at τ is advanced by a full step with the accelerations of
+//! the natural-partitioning solve at τ, its gyroscopic term `ω × Jω` and `Ȧq̇` evaluated
+//! with the other sequence's (synchronous) velocities, Euler parameters by the Cayley
+//! update. After each update the new positions are projected onto the tree joints root →
+//! leaf ([`kin::project`]) and the new velocities (at τ + h/2) onto the null space at the
+//! positions of that time (the other sequence's): rates extracted, `u = A q̇` rebuilt. The
+//! tree constraints then hold to round-off at every output (`< 1e-10` over 10 s is
+//! tested) at `O(N)` cost per step; the projection changes the trajectory by the `O(h³)`
+//! local violation only, so the method stays second order.
+//!
+//! ## Parallelism
+//!
+//! Joint blocks, forces and coordinate updates are per body; the recursions run sibling
+//! branches in parallel ([`tree::Schedule`]), with rayon, when a level holds at least
+//! [`tree::PAR_MIN`] bodies.
 
 pub mod kin;
+pub mod reduced;
+pub mod tree;
+
+use nalgebra::Vector3;
+
+use super::common::{self, gyro, Index1};
+use super::{Integrator, StartError, State, StepError, StepInfo};
+use crate::math::cayley_update;
+use crate::system::{ConstraintEval, Layout, Need, Pose, RowJac, RowKind, System, Twist, Wrench};
+use reduced::{free_kin, pcg, Node, PcgOps, Solver};
+use tree::{Tree, NONE};
+
+/// One leapfrog sequence (body order).
+#[derive(Clone, Debug)]
+struct Seq {
+    pose: Vec<Pose>,
+    vel: Vec<Twist>,
+}
+
+/// Newton iterations per half step before giving up.
+const MAX_NEWTON: u32 = 25;
+
+/// The natural-partitioning integrator (see the module doc).
+pub struct Natural {
+    h: f64,
+    tree: Tree,
+    nodes: Vec<Node>,
+    /// Which `Node::kin` holds the blocks at the positions of the sequence advanced next.
+    cur: usize,
+    seq: [Seq; 2],
+    trial: Seq,
+    x: usize,
+    tau: f64,
+    t0: f64,
+    half_steps: u64,
+    // cut rows
+    /// Regularization per cut row.
+    e: Vec<f64>,
+    epsilon: f64,
+    lambda: Vec<f64>,
+    lambda_prev: Vec<f64>,
+    lambda0: Vec<f64>,
+    tau_lambda: f64,
+    active: Vec<bool>,
+    next_active: Vec<bool>,
+    ce: ConstraintEval,
+    ce_trial: ConstraintEval,
+    // buffers
+    applied: Vec<Wrench>,
+    acc_free: Vec<Twist>,
+    resp: Vec<Twist>,
+    dresp: Vec<Twist>,
+    res: Vec<f64>,
+    dl: Vec<f64>,
+    diag: Vec<f64>,
+    work: [Vec<f64>; 4],
+    tol: f64,
+    rtol: f64,
+    // statistics
+    lints: u64,
+    newton_total: u64,
+    newton_max: u32,
+    pcg_total: u64,
+    pcg_solves: u64,
+    pcg_max: u32,
+}
+
+/// The cut-row operator `S = E + h² G (AᵀMA)⁻¹ Gᵀ` for [`pcg`], with its body-level
+/// response accumulated in `dresp` (`Σ α A(AᵀMA)⁻¹AᵀB_cᵀ p`).
+struct CutOps<'a, 't> {
+    solver: Solver<'t>,
+    nodes: &'a mut [Node],
+    k: usize,
+    layout: &'a Layout,
+    rows: &'a [usize],
+    jac: &'a [RowJac],
+    pos: &'a [usize],
+    active: &'a [bool],
+    e: &'a [f64],
+    diag: &'a [f64],
+    h2: f64,
+    dresp: &'a mut [Twist],
+}
+
+#[inline]
+fn dot6(r: &[f64; 6], t: &Twist) -> f64 {
+    r[0] * t.v.x + r[1] * t.v.y + r[2] * t.v.z + r[3] * t.w.x + r[4] * t.w.y + r[5] * t.w.z
+}
+
+#[inline]
+fn add6(w: &mut Wrench, r: &[f64; 6], l: f64) {
+    w.f += Vector3::new(r[0], r[1], r[2]) * l;
+    w.t += Vector3::new(r[3], r[4], r[5]) * l;
+}
+
+/// `A (AᵀMA)⁻¹ Aᵀ B_cᵀ v` into `Node::acc` (one tree solve).
+#[allow(clippy::too_many_arguments)]
+fn cut_response(
+    solver: &Solver<'_>,
+    nodes: &mut [Node],
+    k: usize,
+    layout: &Layout,
+    rows: &[usize],
+    jac: &[RowJac],
+    pos: &[usize],
+    active: &[bool],
+    v: &[f64],
+) {
+    solver
+        .tree
+        .sched
+        .nodes(nodes, &|_, n: &mut Node| n.f = Wrench::default());
+    for (i, &r) in rows.iter().enumerate() {
+        if !active[r] || v[i] == 0.0 {
+            continue;
+        }
+        let (a, b) = layout.row_bodies(r);
+        if let Some(a) = a {
+            add6(&mut nodes[pos[a]].f, &jac[r].a, v[i]);
+        }
+        if let Some(b) = b {
+            add6(&mut nodes[pos[b]].f, &jac[r].b, v[i]);
+        }
+    }
+    solver.solve(nodes, k, true, false);
+}
+
+/// `(B_c u)_i` for per-position twists `u` (`u_of(p)`).
+#[inline]
+fn cut_row_times(
+    layout: &Layout,
+    r: usize,
+    jac: &[RowJac],
+    pos: &[usize],
+    u_of: impl Fn(usize) -> Twist,
+) -> f64 {
+    let (a, b) = layout.row_bodies(r);
+    a.map_or(0.0, |a| dot6(&jac[r].a, &u_of(pos[a])))
+        + b.map_or(0.0, |b| dot6(&jac[r].b, &u_of(pos[b])))
+}
+
+impl PcgOps for CutOps<'_, '_> {
+    fn apply(&mut self, p: &[f64], out: &mut [f64]) {
+        cut_response(
+            &self.solver,
+            self.nodes,
+            self.k,
+            self.layout,
+            self.rows,
+            self.jac,
+            self.pos,
+            self.active,
+            p,
+        );
+        for (i, &r) in self.rows.iter().enumerate() {
+            out[i] = if self.active[r] {
+                let nodes = &*self.nodes;
+                self.e[i] * p[i]
+                    + self.h2 * cut_row_times(self.layout, r, self.jac, self.pos, |q| nodes[q].acc)
+            } else {
+                p[i]
+            };
+        }
+    }
+
+    fn precond(&mut self, r: &[f64], z: &mut [f64]) {
+        for i in 0..r.len() {
+            z[i] = r[i] / self.diag[i];
+        }
+    }
+
+    fn step(&mut self, alpha: f64) {
+        for (d, n) in self.dresp.iter_mut().zip(self.nodes.iter()) {
+            d.v += n.acc.v * alpha;
+            d.w += n.acc.w * alpha;
+        }
+    }
+}
+
+impl Natural {
+    /// The method for `sys` with step `h`, starting from `start`. `epsilon`: ε for the cut
+    /// rows (`None`: the default rule); `tolerance`: relative tolerance of the cut-row PCG.
+    pub fn new<S: System>(
+        sys: &S,
+        h: f64,
+        epsilon: Option<f64>,
+        tolerance: f64,
+        start: &State,
+    ) -> Result<Natural, StartError> {
+        let layout = sys.layout();
+        let nb = layout.bodies();
+        let tree = Tree::new(layout);
+        // The system must describe every tree joint.
+        let mut probe = kin::TreeJointKin::default();
+        for l in &tree.links {
+            if l.joint != NONE
+                && !sys.tree_joint_kinematics(
+                    l.joint,
+                    l.child_is_b,
+                    &Pose::default(),
+                    &Pose::default(),
+                    &mut probe,
+                )
+            {
+                return Err(StartError::Unsupported("natural_partitioning"));
+            }
+        }
+        let mut nodes: Vec<Node> = tree
+            .links
+            .iter()
+            .map(|l| {
+                let mut n = Node::new(&layout.mass[l.body]);
+                if l.joint == NONE {
+                    n.kin = [free_kin(); 2];
+                }
+                n
+            })
+            .collect();
+        let m = tree.cut_rows.len();
+        let mut s = Natural {
+            h,
+            nodes: Vec::new(),
+            cur: 0,
+            seq: [
+                Seq {
+                    pose: start.pose.clone(),
+                    vel: start.twist.clone(),
+                },
+                Seq {
+                    pose: start.pose.clone(),
+                    vel: start.twist.clone(),
+                },
+            ],
+            trial: Seq {
+                pose: start.pose.clone(),
+                vel: start.twist.clone(),
+            },
+            x: 0,
+            tau: start.t,
+            t0: start.t,
+            half_steps: 0,
+            e: vec![0.0; m],
+            epsilon: 0.0,
+            lambda: vec![0.0; m],
+            lambda_prev: vec![0.0; m],
+            lambda0: vec![0.0; m],
+            tau_lambda: start.t,
+            active: start.active.clone(),
+            next_active: start.active.clone(),
+            ce: ConstraintEval::new(layout.rows),
+            ce_trial: ConstraintEval::new(layout.rows),
+            applied: vec![Wrench::default(); nb],
+            acc_free: vec![Twist::default(); nb],
+            resp: vec![Twist::default(); nb],
+            dresp: vec![Twist::default(); nb],
+            res: vec![0.0; m],
+            dl: vec![0.0; m],
+            diag: vec![1.0; m],
+            work: [vec![0.0; m], vec![0.0; m], vec![0.0; m], vec![0.0; m]],
+            tol: 0.0,
+            rtol: tolerance,
+            lints: 0,
+            newton_total: 0,
+            newton_max: 0,
+            pcg_total: 0,
+            pcg_solves: 0,
+            pcg_max: 0,
+            tree,
+        };
+        std::mem::swap(&mut s.nodes, &mut nodes);
+        let scale = start.pose.iter().fold(1.0f64, |a, p| a.max(p.r.norm()));
+        s.tol = 1e-13 * scale;
+
+        // Consistent start: project the initial state onto the tree.
+        let t0 = start.t;
+        let mut pose0 = start.pose.clone();
+        let mut vel0 = start.twist.clone();
+        s.project_positions(sys, &mut pose0);
+        s.kinematics(sys, 0, &pose0);
+        s.project_velocities(0, &mut vel0);
+
+        // Accelerations at t0 with the consistent cut multipliers.
+        s.free_accelerations(sys, 0, t0, &pose0, &vel0, &vel0)?;
+        let has_cut = s.tree.cut_rows.iter().any(|&r| s.active[r]);
+        if !s.tree.cut_rows.is_empty() {
+            sys.constraints(t0, &pose0, &vel0, Need::ALL, &mut s.ce);
+            let mut q0 = vec![Wrench::default(); nb];
+            let mut ap = vec![Wrench::default(); nb];
+            sys.applied(t0, &pose0, &vel0, &mut ap);
+            common::qbar(layout, &ap, &vel0, &mut q0);
+            let mut lam_all = vec![0.0; layout.rows];
+            if has_cut {
+                Index1::new(layout)?.solve(layout, &s.ce, &q0, &s.active, &mut lam_all)?;
+            }
+            for (i, &r) in s.tree.cut_rows.iter().enumerate() {
+                s.lambda[i] = if s.active[r] { lam_all[r] } else { 0.0 };
+            }
+            s.lambda0.copy_from_slice(&s.lambda);
+            s.lambda_prev.copy_from_slice(&s.lambda);
+            // E per row (staggered default rule) from K = B_c M⁻¹ B_cᵀ at the start.
+            let rho = 1e-9;
+            let kd: Vec<f64> = s
+                .tree
+                .cut_rows
+                .iter()
+                .map(|&r| k_diag(layout, &s.ce.jac[r], r))
+                .collect();
+            let kmax = kd.iter().copied().fold(0.0, f64::max);
+            s.e = match epsilon {
+                Some(eps) => s
+                    .tree
+                    .cut_rows
+                    .iter()
+                    .map(|&r| {
+                        if layout.row_kind[r] == RowKind::Holonomic {
+                            eps
+                        } else {
+                            eps * h
+                        }
+                    })
+                    .collect(),
+                None => {
+                    let floor = rho * h * h * kmax * f64::EPSILON;
+                    kd.iter()
+                        .map(|k| (rho * h * h * k).max(floor).max(f64::MIN_POSITIVE))
+                        .collect()
+                }
+            };
+            s.epsilon = epsilon.unwrap_or_else(|| s.e.iter().copied().fold(0.0, f64::max));
+            // response to λ⁰
+            s.response(layout, 0, &s.lambda.clone());
+            for p in 0..nb {
+                s.resp[p] = Twist {
+                    v: -s.nodes[p].acc.v,
+                    w: -s.nodes[p].acc.w,
+                };
+            }
+        }
+        // Sequences: B at t0 with velocities at t0 − h/2, A at t0 + h/2 with velocities at t0.
+        let mut seq_b = Seq {
+            pose: pose0.clone(),
+            vel: vel0.clone(),
+        };
+        let mut seq_a = Seq {
+            pose: pose0.clone(),
+            vel: vel0.clone(),
+        };
+        for i in 0..nb {
+            let p = s.tree.pos[i];
+            let a = Twist {
+                v: s.acc_free[p].v + s.resp[p].v,
+                w: s.acc_free[p].w + s.resp[p].w,
+            };
+            seq_b.vel[i].v = vel0[i].v - a.v * (h / 2.0);
+            seq_b.vel[i].w = vel0[i].w - a.w * (h / 2.0);
+            let dr = vel0[i].v * (h / 2.0) + a.v * (h * h / 8.0);
+            let phi = vel0[i].w * (h / 2.0) + a.w * (h * h / 8.0);
+            seq_a.pose[i] = common::rotate_body(&pose0[i], dr, phi);
+        }
+        s.project_positions(sys, &mut seq_a.pose);
+        s.seq = [seq_b, seq_a];
+        s.x = 0;
+        s.cur = 0;
+        Ok(s)
+    }
+
+    /// The ε in use for the cut rows (the largest per-row value with the default rule).
+    pub fn epsilon(&self) -> f64 {
+        self.epsilon
+    }
+
+    /// The tree the method walks.
+    pub fn tree(&self) -> &Tree {
+        &self.tree
+    }
+
+    /// Set the smallest level size run in parallel (for measurements).
+    pub fn set_par_min(&mut self, n: usize) {
+        self.tree.sched.par_min = n.max(2);
+    }
+
+    /// Joint blocks `Node::kin[k]` at the poses `pose` (per body, in parallel).
+    fn kinematics<S: System>(&mut self, sys: &S, k: usize, pose: &[Pose]) {
+        let tree = &self.tree;
+        let ground = Pose::default();
+        tree.sched.nodes(&mut self.nodes, &|p, n: &mut Node| {
+            let l = &tree.links[p];
+            if l.joint == NONE {
+                return;
+            }
+            let parent = if l.parent == NONE {
+                &ground
+            } else {
+                &pose[tree.links[l.parent].body]
+            };
+            sys.tree_joint_kinematics(l.joint, l.child_is_b, parent, &pose[l.body], &mut n.kin[k]);
+        });
+    }
+
+    /// Project `pose` onto the tree joints, root → leaf.
+    fn project_positions<S: System>(&mut self, sys: &S, pose: &mut [Pose]) {
+        let tree = &self.tree;
+        {
+            let src: &[Pose] = pose;
+            tree.sched.nodes(&mut self.nodes, &|p, n: &mut Node| {
+                n.pose = src[tree.links[p].body]
+            });
+        }
+        tree.sched
+            .levels(&mut self.nodes, false, &|start, br: &mut [Node], view| {
+                for i in 0..br.len() {
+                    let l = &tree.links[start + i];
+                    if l.joint == NONE {
+                        continue;
+                    }
+                    let parent = if i > 0 {
+                        br[i - 1].pose
+                    } else if l.parent == NONE {
+                        Pose::default()
+                    } else {
+                        view.get(l.parent).pose
+                    };
+                    sys.tree_joint_project(l.joint, l.child_is_b, &parent, &mut br[i].pose);
+                }
+            });
+        for (p, l) in tree.links.iter().enumerate() {
+            pose[l.body] = self.nodes[p].pose;
+        }
+    }
+
+    /// Project `vel` onto the null space of the tree at the blocks `kin[k]`: rates of the
+    /// relative motion, then `u = A q̇` root → leaf.
+    fn project_velocities(&mut self, k: usize, vel: &mut [Twist]) {
+        let tree = &self.tree;
+        {
+            let src: &[Twist] = vel;
+            tree.sched.nodes(&mut self.nodes, &|p, n: &mut Node| {
+                let l = &tree.links[p];
+                let up = if l.parent == NONE {
+                    Twist::default()
+                } else {
+                    src[tree.links[l.parent].body]
+                };
+                let uc = src[l.body];
+                n.rates = if l.joint == NONE {
+                    [uc.v.x, uc.v.y, uc.v.z, uc.w.x, uc.w.y, uc.w.z]
+                } else {
+                    n.kin[k].rates(&up, &uc)
+                };
+            });
+        }
+        tree.sched
+            .levels(&mut self.nodes, false, &|start, br: &mut [Node], view| {
+                for i in 0..br.len() {
+                    let l = &tree.links[start + i];
+                    let up = if i > 0 {
+                        br[i - 1].tw
+                    } else if l.parent == NONE {
+                        Twist::default()
+                    } else {
+                        view.get(l.parent).tw
+                    };
+                    let n = &mut br[i];
+                    n.tw = n.kin[k].forward(&up, &n.rates);
+                }
+            });
+        for (p, l) in tree.links.iter().enumerate() {
+            vel[l.body] = self.nodes[p].tw;
+        }
+    }
+
+    /// Factor at `kin[k]`, then the accelerations without cut forces into `acc_free`:
+    /// `Ȧq̇` with the velocities `vs` (synchronous), forces at `(pose, vl)` (`vl`: the lagged
+    /// velocities damping forces use) with the gyroscopic term at `vs`.
+    fn free_accelerations<S: System>(
+        &mut self,
+        sys: &S,
+        k: usize,
+        t: f64,
+        pose: &[Pose],
+        vl: &[Twist],
+        vs: &[Twist],
+    ) -> Result<(), StepError> {
+        let layout = sys.layout();
+        let solver = Solver { tree: &self.tree };
+        if let Some(p) = solver.factor(&mut self.nodes, k) {
+            return Err(StepError::Singular {
+                what: "reduced mass AᵀMA (natural partitioning)",
+                row: self.tree.links[p].off,
+            });
+        }
+        sys.applied(t, pose, vl, &mut self.applied);
+        let tree = &self.tree;
+        let applied = &self.applied;
+        // Ȧq̇ root → leaf (a0), then f = F − ω×Jω − M a0 per body.
+        tree.sched
+            .levels(&mut self.nodes, false, &|start, br: &mut [Node], view| {
+                for i in 0..br.len() {
+                    let l = &tree.links[start + i];
+                    if l.joint == NONE {
+                        br[i].a0 = Twist::default();
+                        continue;
+                    }
+                    let (up, a0p) = if l.parent == NONE {
+                        (Twist::default(), Twist::default())
+                    } else {
+                        let a0p = if i > 0 {
+                            br[i - 1].a0
+                        } else {
+                            view.get(l.parent).a0
+                        };
+                        (vs[tree.links[l.parent].body], a0p)
+                    };
+                    let n = &mut br[i];
+                    let uc = vs[l.body];
+                    let kin = &n.kin[k];
+                    let rates = kin.rates(&up, &uc);
+                    let kap = kin.kappa(&up, &uc, &rates);
+                    let tr = kin.transport(&a0p);
+                    n.a0 = Twist {
+                        v: tr.v + kap.v,
+                        w: tr.w + kap.w,
+                    };
+                }
+            });
+        tree.sched.nodes(&mut self.nodes, &|p, n: &mut Node| {
+            let b = tree.links[p].body;
+            let ma0 = n.mass_mul(&n.a0);
+            let mp = &layout.mass[b];
+            n.f = Wrench {
+                f: applied[b].f - ma0.f,
+                t: applied[b].t - gyro(mp, &vs[b].w) - ma0.t,
+            };
+        });
+        solver.solve(&mut self.nodes, k, true, false);
+        for (p, n) in self.nodes.iter().enumerate() {
+            self.acc_free[p] = Twist {
+                v: n.a0.v + n.acc.v,
+                w: n.a0.w + n.acc.w,
+            };
+        }
+        Ok(())
+    }
+
+    /// `Node::acc = A(AᵀMA)⁻¹AᵀB_cᵀ v` at `kin[k]` (one tree solve), with `self.ce`'s
+    /// Jacobian.
+    fn response(&mut self, layout: &Layout, k: usize, v: &[f64]) {
+        let solver = Solver { tree: &self.tree };
+        cut_response(
+            &solver,
+            &mut self.nodes,
+            k,
+            layout,
+            &self.tree.cut_rows,
+            &self.ce.jac,
+            &self.tree.pos,
+            &self.active,
+            v,
+        );
+    }
+
+    /// Advance sequence `x` by h with the accelerations `acc_free + resp` into `trial`,
+    /// then project positions onto the tree and velocities with `kin[kn]`.
+    fn cint_trial<S: System>(&mut self, sys: &S, x: usize, kn: usize) {
+        let h = self.h;
+        let src = &self.seq[x];
+        let (acc_free, resp, pos) = (&self.acc_free, &self.resp, &self.tree.pos);
+        let upd = |i: usize, pose: &mut Pose, vel: &mut Twist| {
+            let p = pos[i];
+            let a = Twist {
+                v: acc_free[p].v + resp[p].v,
+                w: acc_free[p].w + resp[p].w,
+            };
+            let v = Twist {
+                v: src.vel[i].v + a.v * h,
+                w: src.vel[i].w + a.w * h,
+            };
+            let q = cayley_update(&src.pose[i].q, &v.w, h, false);
+            *pose = Pose {
+                r: src.pose[i].r + v.v * h,
+                q,
+                c: crate::math::rotation(&q),
+            };
+            *vel = v;
+        };
+        let trial = &mut self.trial;
+        if trial.pose.len() >= self.tree.sched.par_min {
+            use rayon::prelude::*;
+            trial
+                .pose
+                .par_iter_mut()
+                .zip(trial.vel.par_iter_mut())
+                .enumerate()
+                .for_each(|(i, (p, v))| upd(i, p, v));
+        } else {
+            for (i, (p, v)) in trial.pose.iter_mut().zip(trial.vel.iter_mut()).enumerate() {
+                upd(i, p, v);
+            }
+        }
+        let mut trial = std::mem::replace(
+            &mut self.trial,
+            Seq {
+                pose: Vec::new(),
+                vel: Vec::new(),
+            },
+        );
+        self.project_positions(sys, &mut trial.pose);
+        self.project_velocities(kn, &mut trial.vel);
+        self.trial = trial;
+    }
+
+    /// One half step of sequence `x` at τ (the other sequence `y` has the synchronous
+    /// velocities). Returns the PCG iterations made.
+    fn advance<S: System>(&mut self, sys: &S, x: usize, y: usize) -> Result<u32, StepError> {
+        let layout = sys.layout();
+        let (k, kn) = (self.cur, 1 - self.cur);
+        let h = self.h;
+        // Blocks at the other sequence's positions (time τ + h/2): velocity projection now,
+        // dynamics at the next half step.
+        let pose_y = std::mem::take(&mut self.seq[y].pose);
+        self.kinematics(sys, kn, &pose_y);
+        self.seq[y].pose = pose_y;
+        let (pose_x, vel_x) = (
+            std::mem::take(&mut self.seq[x].pose),
+            std::mem::take(&mut self.seq[x].vel),
+        );
+        let vel_y = std::mem::take(&mut self.seq[y].vel);
+        let r = self.free_accelerations(sys, k, self.tau, &pose_x, &vel_x, &vel_y);
+        let has_cut = self.tree.cut_rows.iter().any(|&r| self.active[r]);
+        if has_cut && r.is_ok() {
+            sys.constraints(self.tau, &pose_x, &vel_y, Need::JAC, &mut self.ce);
+        }
+        self.seq[x].pose = pose_x;
+        self.seq[x].vel = vel_x;
+        self.seq[y].vel = vel_y;
+        r?;
+        let mut pcg_iters = 0;
+        if !has_cut {
+            self.resp.iter_mut().for_each(|r| *r = Twist::default());
+            self.cint_trial(sys, x, kn);
+        } else {
+            // warm start λ(τ) ≈ 2λ(τ − h/2) − λ(τ − h)
+            for (i, &r) in self.tree.cut_rows.iter().enumerate() {
+                let (l1, l0) = (self.lambda[i], self.lambda_prev[i]);
+                self.lambda_prev[i] = l1;
+                self.lambda[i] = if self.active[r] { 2.0 * l1 - l0 } else { 0.0 };
+            }
+            let lam = std::mem::take(&mut self.lambda);
+            self.response(layout, k, &lam);
+            self.lambda = lam;
+            for (r, n) in self.resp.iter_mut().zip(&self.nodes) {
+                *r = Twist {
+                    v: -n.acc.v,
+                    w: -n.acc.w,
+                };
+            }
+            // Jacobi preconditioner: diag(E + h² B_c M⁻¹ B_cᵀ)
+            for (i, &r) in self.tree.cut_rows.iter().enumerate() {
+                self.diag[i] = if self.active[r] {
+                    self.e[i] + h * h * k_diag(layout, &self.ce.jac[r], r)
+                } else {
+                    1.0
+                };
+            }
+            let mut converged = false;
+            let mut newton = 0;
+            for it in 0..MAX_NEWTON {
+                newton = it;
+                self.cint_trial(sys, x, kn);
+                sys.constraints(
+                    self.tau + h,
+                    &self.trial.pose,
+                    &self.trial.vel,
+                    Need::PHI,
+                    &mut self.ce_trial,
+                );
+                let mut worst: f64 = 0.0;
+                for (i, &r) in self.tree.cut_rows.iter().enumerate() {
+                    if !self.active[r] {
+                        self.res[i] = 0.0;
+                        continue;
+                    }
+                    let phi = if layout.row_kind[r] == RowKind::Holonomic {
+                        self.ce_trial.phi[r]
+                    } else {
+                        let (a, b) = layout.row_bodies(r);
+                        let bu = a.map_or(0.0, |a| dot6(&self.ce.jac[r].a, &self.trial.vel[a]))
+                            + b.map_or(0.0, |b| dot6(&self.ce.jac[r].b, &self.trial.vel[b]));
+                        h * 0.5 * (self.ce_trial.phi[r] + bu + self.ce.bias[r])
+                    };
+                    self.res[i] = phi - self.e[i] * (self.lambda[i] - self.lambda0[i]);
+                    worst = worst.max(self.res[i].abs());
+                }
+                if worst <= self.tol {
+                    converged = true;
+                    break;
+                }
+                // Newton correction: S Δλ = res by PCG, accumulating the body response.
+                self.dresp.iter_mut().for_each(|d| *d = Twist::default());
+                let stats = {
+                    let mut ops = CutOps {
+                        solver: Solver { tree: &self.tree },
+                        nodes: &mut self.nodes,
+                        k,
+                        layout,
+                        rows: &self.tree.cut_rows,
+                        jac: &self.ce.jac,
+                        pos: &self.tree.pos,
+                        active: &self.active,
+                        e: &self.e,
+                        diag: &self.diag,
+                        h2: h * h,
+                        dresp: &mut self.dresp,
+                    };
+                    let max_it = (4 * self.res.len()).max(50) as u32;
+                    pcg(
+                        &mut ops,
+                        &self.res,
+                        &mut self.dl,
+                        &mut self.work,
+                        self.rtol,
+                        0.1 * self.tol,
+                        max_it,
+                    )
+                };
+                pcg_iters += stats.iterations;
+                self.pcg_total += stats.iterations as u64;
+                self.pcg_solves += 1;
+                self.pcg_max = self.pcg_max.max(stats.iterations);
+                if !stats.converged && stats.relative_residual > 1e-3 {
+                    return Err(StepError::NoConvergence {
+                        what: "cut-joint PCG (natural partitioning)",
+                        iterations: stats.iterations,
+                        residual: stats.relative_residual,
+                    });
+                }
+                for i in 0..self.dl.len() {
+                    self.lambda[i] += self.dl[i];
+                }
+                for p in 0..self.resp.len() {
+                    self.resp[p].v -= self.dresp[p].v;
+                    self.resp[p].w -= self.dresp[p].w;
+                }
+            }
+            if !converged {
+                return Err(StepError::NoConvergence {
+                    what: "natural-partitioning cut-joint Newton iteration",
+                    iterations: MAX_NEWTON,
+                    residual: self.res.iter().fold(0.0, |a: f64, b| a.max(b.abs())),
+                });
+            }
+            self.tau_lambda = self.tau;
+            self.lints += 1;
+            self.newton_total += newton as u64;
+            self.newton_max = self.newton_max.max(newton);
+        }
+        std::mem::swap(&mut self.seq[x], &mut self.trial);
+        self.cur = kn;
+        Ok(pcg_iters)
+    }
+
+    fn check_locks<S: System>(&mut self, sys: &S) {
+        self.next_active.copy_from_slice(&self.active);
+        if sys
+            .update_locks(
+                &self.seq[self.x].pose,
+                &self.seq[1 - self.x].vel,
+                &mut self.next_active,
+            )
+            .is_some()
+        {
+            for (i, &r) in self.tree.cut_rows.iter().enumerate() {
+                if self.next_active[r] && !self.active[r] {
+                    self.lambda[i] = 0.0;
+                    self.lambda_prev[i] = 0.0;
+                    self.lambda0[i] = 0.0;
+                }
+            }
+            self.active.copy_from_slice(&self.next_active);
+        }
+    }
+}
+
+/// `K_rr = B_r M⁻¹ B_rᵀ` of one row.
+fn k_diag(layout: &Layout, jac: &RowJac, r: usize) -> f64 {
+    let (a, b) = layout.row_bodies(r);
+    let side = |row: &[f64; 6], i: usize| {
+        let m = &layout.mass[i];
+        let v = Vector3::new(row[0], row[1], row[2]);
+        let w = Vector3::new(row[3], row[4], row[5]);
+        v.norm_squared() / m.m + w.dot(&(m.j_inv * w))
+    };
+    a.map_or(0.0, |a| side(&jac.a, a)) + b.map_or(0.0, |b| side(&jac.b, b))
+}
+
+impl<S: System> Integrator<S> for Natural {
+    fn name(&self) -> &'static str {
+        "natural_partitioning"
+    }
+
+    fn time(&self) -> f64 {
+        self.tau
+    }
+
+    fn step_size(&self) -> f64 {
+        self.h
+    }
+
+    fn step(&mut self, sys: &S) -> Result<StepInfo, StepError> {
+        let mut iterations = 0;
+        for _ in 0..2 {
+            let x = self.x;
+            iterations += self.advance(sys, x, 1 - x)?;
+            self.half_steps += 1;
+            self.tau = self.t0 + self.half_steps as f64 * self.h / 2.0;
+            self.x = 1 - x;
+        }
+        self.check_locks(sys);
+        Ok(StepInfo { iterations })
+    }
+
+    fn state(&self, sys: &S, out: &mut State) {
+        let _ = sys;
+        out.t = self.tau;
+        out.pose.copy_from_slice(&self.seq[self.x].pose);
+        out.twist.copy_from_slice(&self.seq[1 - self.x].vel);
+        out.lambda.iter_mut().for_each(|l| *l = 0.0);
+        let dt = self.tau - self.tau_lambda;
+        for (i, &r) in self.tree.cut_rows.iter().enumerate() {
+            let slope = (self.lambda[i] - self.lambda_prev[i]) / (self.h / 2.0);
+            out.lambda[r] = if self.active[r] {
+                self.lambda[i] + slope * dt
+            } else {
+                0.0
+            };
+        }
+    }
+
+    fn active(&self) -> &[bool] {
+        &self.active
+    }
+
+    fn stats(&self) -> Vec<(&'static str, f64)> {
+        let mut v = vec![
+            ("independent_coordinates", self.tree.ncoord as f64),
+            ("cut_rows", self.tree.cut_rows.len() as f64),
+            ("tree_levels", self.tree.sched.levels_len() as f64),
+        ];
+        if !self.tree.cut_rows.is_empty() {
+            v.push(("epsilon", self.epsilon));
+            v.push((
+                "newton_iterations_mean",
+                self.newton_total as f64 / self.lints.max(1) as f64,
+            ));
+            v.push(("newton_iterations_max", self.newton_max as f64));
+            v.push((
+                "pcg_iterations_mean",
+                self.pcg_total as f64 / self.pcg_solves.max(1) as f64,
+            ));
+            v.push(("pcg_iterations_max", self.pcg_max as f64));
+        }
+        v
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use nalgebra::{Matrix3, Quaternion};
+    use proptest::prelude::*;
+
+    use super::kin::tests::{random_geom, rquat, rvec, KINDS};
+    use super::kin::TreeJointKind;
+    use super::reduced::Precond;
+    use super::*;
+    use crate::interp::Interp;
+    use crate::linalg::testutil::Rng;
+    use crate::math::quat_array;
+    use crate::scene::{
+        Attachment, Body, BodyRef, Joint, JointKind, MethodSpec, Origin, Scene, Simulate,
+    };
+
+    fn scene_kind(k: TreeJointKind) -> JointKind {
+        match k {
+            TreeJointKind::Spherical => JointKind::Spherical,
+            TreeJointKind::Revolute => JointKind::Revolute,
+            TreeJointKind::Prismatic => JointKind::Prismatic,
+            TreeJointKind::Cylindrical => JointKind::Cylindrical,
+            TreeJointKind::Universal => JointKind::Universal,
+            TreeJointKind::Fixed => JointKind::Fixed,
+            TreeJointKind::Planar => JointKind::Planar,
+        }
+    }
+
+    /// A random forest of `n` bodies: body `i` hangs off the ground, an earlier body, or
+    /// nothing (a free root), by a joint of a random tree-eligible kind with random
+    /// attachments; `extra` joints between random bodies close loops. Random masses,
+    /// inertias, poses (joints violated) and gravity.
+    pub(crate) fn random_scene(rng: &mut Rng, n: usize, extra: usize) -> Scene {
+        let mut bodies = Vec::new();
+        for i in 0..n {
+            let m = crate::linalg::testutil::random_mass(rng);
+            bodies.push(Body {
+                name: format!("b{i}"),
+                mass: m.m,
+                inertia: [
+                    [m.j[(0, 0)], m.j[(0, 1)], m.j[(0, 2)]],
+                    [m.j[(1, 0)], m.j[(1, 1)], m.j[(1, 2)]],
+                    [m.j[(2, 0)], m.j[(2, 1)], m.j[(2, 2)]],
+                ],
+                position: rvec(rng, 1.0).into(),
+                orientation: quat_array(&rquat(rng)),
+                velocity: [0.0; 3],
+                angular_velocity: [0.0; 3],
+                origin: Origin::default(),
+            });
+        }
+        let mut joints = Vec::new();
+        let att = |body: BodyRef, g: &crate::joints::JointGeom, a: bool| Attachment {
+            body,
+            point: if a { g.pa } else { g.pb },
+            frame: if a { g.qa } else { g.qb },
+        };
+        for i in 0..n {
+            let r = rng.uniform();
+            let parent = if i == 0 || r < 0.2 {
+                BodyRef::Ground
+            } else if r < 0.3 {
+                continue; // free root
+            } else {
+                BodyRef::Body(rng.below(i))
+            };
+            let kind = KINDS[rng.below(KINDS.len())];
+            let g = random_geom(rng);
+            let (a, b) = if rng.uniform() < 0.5 {
+                (att(parent, &g, true), att(BodyRef::Body(i), &g, false))
+            } else {
+                (att(BodyRef::Body(i), &g, true), att(parent, &g, false))
+            };
+            joints.push(Joint {
+                name: format!("j{i}"),
+                kind: scene_kind(kind),
+                a,
+                b,
+                origin: Origin::default(),
+            });
+        }
+        for e in 0..extra {
+            let a = rng.below(n);
+            let mut b = rng.below(n + 1);
+            if b == a {
+                b = n;
+            }
+            let g = random_geom(rng);
+            let br = if b == n {
+                BodyRef::Ground
+            } else {
+                BodyRef::Body(b)
+            };
+            joints.push(Joint {
+                name: format!("x{e}"),
+                kind: JointKind::Spherical,
+                a: att(BodyRef::Body(a), &g, true),
+                b: att(br, &g, false),
+                origin: Origin::default(),
+            });
+        }
+        Scene {
+            name: "random".into(),
+            gravity: Some(rvec(rng, 5.0).into()),
+            bodies,
+            joints,
+            forces: Vec::new(),
+            beams: Vec::new(),
+            meshes: Vec::new(),
+            contacts: Vec::new(),
+            simulate: Simulate::default(),
+            reference: None,
+            params: Vec::new(),
+        }
+    }
+
+    fn random_state(rng: &mut Rng, n: usize) -> (Vec<Pose>, Vec<Twist>) {
+        let pose = (0..n)
+            .map(|_| Pose::new(rvec(rng, 1.0), rquat(rng)))
+            .collect();
+        (pose, vec![Twist::default(); n])
+    }
+
+    fn natural(sys: &Interp) -> Natural {
+        let st = State::initial(sys);
+        Natural::new(sys, 1e-3, None, 1e-12, &st).expect("start")
+    }
+
+    /// `B A = 0` for every tree row over random trees at random (violated)
+    /// configurations: the columns of `A` (one forward pass per independent coordinate)
+    /// are annihilated by the kernels' Jacobian rows.
+    fn check_ba(seed: u64, n: usize) {
+        let mut rng = Rng::new(seed);
+        let scene = random_scene(&mut rng, n, 0);
+        let sys = Interp::new(&scene).unwrap();
+        let mut s = natural(&sys);
+        let (pose, vel) = random_state(&mut rng, n);
+        s.kinematics(&sys, 0, &pose);
+        let layout = sys.layout();
+        let mut ce = ConstraintEval::new(layout.rows);
+        sys.constraints(0.0, &pose, &vel, Need::JAC, &mut ce);
+        let solver = Solver { tree: &s.tree };
+        let mut worst: f64 = 0.0;
+        for c in 0..s.tree.ncoord {
+            let mut e = vec![0.0; s.tree.ncoord];
+            e[c] = 1.0;
+            solver.scatter(&mut s.nodes, &e, false);
+            solver.forward(&mut s.nodes, 0);
+            let acc: Vec<Twist> = (0..n).map(|b| s.nodes[s.tree.pos[b]].acc).collect();
+            for r in 0..layout.rows {
+                if s.tree.cut_rows.contains(&r) {
+                    continue;
+                }
+                let (a, b) = layout.row_bodies(r);
+                let v = a.map_or(0.0, |a| dot6(&ce.jac[r].a, &acc[a]))
+                    + b.map_or(0.0, |b| dot6(&ce.jac[r].b, &acc[b]));
+                let scale = 1.0
+                    + acc
+                        .iter()
+                        .map(|t| t.v.norm() + t.w.norm())
+                        .fold(0.0, f64::max);
+                worst = worst.max(v.abs() / scale);
+            }
+        }
+        assert!(worst < 1e-13, "seed {seed}: max |B A| = {worst:e}");
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(64))]
+        #[test]
+        fn ba_is_zero_on_random_trees(seed in 0u64..1_000_000, n in 1usize..12) {
+            check_ba(seed, n);
+        }
+    }
+
+    /// The accelerations of the reduced equations equal the index-1 solution of the full
+    /// system (`common::Index1`, reference) on random trees at random configurations with
+    /// random consistent velocities `u = A q̇`, to 1e-9 relative.
+    #[test]
+    fn reduced_accelerations_equal_index1() {
+        for seed in 0..40u64 {
+            let mut rng = Rng::new(1000 + seed);
+            let n = 1 + rng.below(10);
+            let scene = random_scene(&mut rng, n, 0);
+            let sys = Interp::new(&scene).unwrap();
+            let layout = sys.layout();
+            let mut s = natural(&sys);
+            let (pose, _) = random_state(&mut rng, n);
+            s.kinematics(&sys, 0, &pose);
+            // u = A q̇ for random q̇
+            let solver = Solver { tree: &s.tree };
+            let qd: Vec<f64> = (0..s.tree.ncoord).map(|_| rng.normal()).collect();
+            solver.scatter(&mut s.nodes, &qd, false);
+            solver.forward(&mut s.nodes, 0);
+            let vel: Vec<Twist> = (0..n).map(|b| s.nodes[s.tree.pos[b]].acc).collect();
+            s.free_accelerations(&sys, 0, 0.0, &pose, &vel, &vel)
+                .unwrap();
+            // reference
+            let mut ce = ConstraintEval::new(layout.rows);
+            sys.constraints(0.0, &pose, &vel, Need::ALL, &mut ce);
+            let mut ap = vec![Wrench::default(); n];
+            sys.applied(0.0, &pose, &vel, &mut ap);
+            let mut q = vec![Wrench::default(); n];
+            common::qbar(layout, &ap, &vel, &mut q);
+            let mut lam = vec![0.0; layout.rows];
+            let active = vec![true; layout.rows];
+            let rank = Index1::new(layout)
+                .unwrap()
+                .solve(layout, &ce, &q, &active, &mut lam)
+                .unwrap();
+            assert_eq!(rank, layout.rows, "seed {seed}: tree rows independent");
+            let mut fl = vec![Wrench::default(); n];
+            common::bt_lambda(layout, &ce, &lam, &active, &mut fl);
+            let mut scale: f64 = 1.0;
+            let mut err: f64 = 0.0;
+            for b in 0..n {
+                let want = common::accel(
+                    &layout.mass[b],
+                    &Wrench {
+                        f: q[b].f - fl[b].f,
+                        t: q[b].t - fl[b].t,
+                    },
+                );
+                let got = s.acc_free[s.tree.pos[b]];
+                scale = scale.max(want.v.norm()).max(want.w.norm());
+                err = err
+                    .max((got.v - want.v).norm())
+                    .max((got.w - want.w).norm());
+            }
+            eprintln!(
+                "seed {seed} (n = {n}, {} coordinates): |Δü| = {err:.2e}, |ü| = {scale:.2e}",
+                s.tree.ncoord
+            );
+            assert!(
+                err < 1e-9 * scale,
+                "seed {seed} (n = {n}): |Δü| = {err:e}, scale {scale:e}"
+            );
+        }
+    }
+
+    /// PCG on AᵀMA: the tree-exact preconditioner converges in one iteration; plain CG
+    /// and block-Jacobi take many more, growing with the chain length.
+    #[test]
+    fn tree_exact_preconditioner_converges_in_one_iteration() {
+        let mut rng = Rng::new(3);
+        let scene = random_scene(&mut rng, 12, 0);
+        let sys = Interp::new(&scene).unwrap();
+        let mut s = natural(&sys);
+        let (pose, _) = random_state(&mut rng, 12);
+        s.kinematics(&sys, 0, &pose);
+        let nc = s.tree.ncoord;
+        let b: Vec<f64> = (0..nc).map(|_| rng.normal()).collect();
+        let solver = Solver { tree: &s.tree };
+        let mut x = vec![0.0; nc];
+        let st = solver.pcg_reduced(&mut s.nodes, 0, Precond::TreeExact, &b, &mut x, 1e-12, 50);
+        assert!(st.converged && st.iterations == 1, "{st:?}");
+        let mut x2 = vec![0.0; nc];
+        let st2 = solver.pcg_reduced(&mut s.nodes, 0, Precond::Identity, &b, &mut x2, 1e-12, 500);
+        eprintln!("tree-exact {st:?}, identity {st2:?}");
+        assert!(st2.iterations > 1, "{st2:?}");
+        for i in 0..nc {
+            assert!(
+                (x[i] - x2[i]).abs() < 1e-6 * (1.0 + x[i].abs()),
+                "{i}: {} vs {}",
+                x[i],
+                x2[i]
+            );
+        }
+    }
+
+    /// Integration: a random tree without loops runs 2000 steps with the tree joints at
+    /// round-off, and its energy (gravity only) stays within 1e-3 relative.
+    #[test]
+    fn random_tree_keeps_joints_at_round_off() {
+        for seed in [11u64, 12, 13] {
+            let mut rng = Rng::new(seed);
+            let scene = random_scene(&mut rng, 8, 0);
+            let mut sys = Interp::new(&scene).unwrap();
+            // assemble the initial state onto the tree
+            let st0 = State::initial(&sys);
+            let s0 = natural(&sys);
+            let _ = s0;
+            let mut pose = st0.pose.clone();
+            let mut s = natural(&sys);
+            s.project_positions(&sys, &mut pose);
+            let vel = vec![Twist::default(); pose.len()];
+            sys.set_initial_state(&pose, &vel);
+            let st = State::initial(&sys);
+            let mut it = Natural::new(&sys, 1e-3, None, 1e-12, &st).unwrap();
+            let mut out = State::initial(&sys);
+            let layout = sys.layout().clone();
+            let mut ce = ConstraintEval::new(layout.rows);
+            let e0 = crate::energy::kinetic_energy(&layout, &st.twist)
+                + sys.potential_energy(0.0, &st.pose);
+            let mut worst: f64 = 0.0;
+            let mut drift: f64 = 0.0;
+            let mut emax: f64 = 1e-3;
+            for _ in 0..2000 {
+                it.step(&sys).unwrap();
+                Integrator::<Interp>::state(&it, &sys, &mut out);
+                sys.constraints(out.t, &out.pose, &out.twist, Need::PHI, &mut ce);
+                worst = ce.phi.iter().fold(worst, |a, p| a.max(p.abs()));
+                let ke = crate::energy::kinetic_energy(&layout, &out.twist);
+                let e = ke + sys.potential_energy(out.t, &out.pose);
+                emax = emax.max(ke);
+                drift = drift.max((e - e0).abs());
+            }
+            eprintln!("seed {seed}: max |Φ| {worst:.2e}, energy drift {drift:.2e}, max kinetic {emax:.2e}");
+            assert!(worst < 1e-12, "seed {seed}: tree violation {worst:e}");
+            assert!(
+                drift < 1e-3 * emax,
+                "seed {seed}: energy drift {drift:e} of {emax:e}"
+            );
+        }
+        let _ = (
+            Matrix3::<f64>::zeros(),
+            Quaternion::<f64>::identity(),
+            MethodSpec::CoordinatePartitioning,
+        );
+    }
+}

@@ -1,0 +1,657 @@
+//! The reduced equations `AᵀMA q̈ = Aᵀ(F − M Ȧq̇)` without forming `AᵀMA`: per-position
+//! data, the tree-exact `O(N)` solve, the matrix-free operator and a preconditioned
+//! conjugate-gradient solver.
+//!
+//! # Arrowhead, Schur complement and the tree-exact solve (notes C §1.8)
+//!
+//! The paper augments `ü = A q̈ + Ȧq̇` and `AᵀM ü = AᵀF` into the arrowhead system
+//! `[−M, MA; AᵀM, 0]`, whose Schur complement of the block-diagonal `−M` is
+//! `+AᵀMA = Σⱼ Aⱼᵀ Mⱼ Aⱼ` (plus sign: SPD; the printed PPCG's two minus signs come from the
+//! `−M` block and cancel, notes C §1.9). [`Solver::apply`] is that operator matrix-free:
+//! `u = A p` root → leaf, `Mⱼ uⱼ` per body (the constant `Mⱼ`), `Aᵀ` leaf → root.
+//!
+//! [`Solver::factor`] / [`Solver::solve`] are the tree-exact solve used as the
+//! preconditioner: block elimination of `AᵀMA` over the tree, leaf → root then root →
+//! leaf, `O(N)` (the articulated-body recursion written for an arbitrary right-hand side).
+//! With `u_c = X_c u_p + S_c x_c`, eliminating a subtree leaves on its parent the cost
+//! `½ yᵀ P y − yᵀ z` of the transported twist `y = X_c u_p`:
+//!
+//! ```text
+//! leaf → root:  I_c = M_c + Σ_k X_kᵀ P_k X_k          (articulated inertia)
+//!               D_c = S_cᵀ I_c S_c = L Lᵀ,  W = I_c S_c L⁻ᵀ,  P_c = I_c − W Wᵀ
+//!               β_c = f_c + Σ_k X_kᵀ z_k,  h_c = L⁻¹(b_c + S_cᵀ β_c),  z_c = β_c − W h_c
+//! root → leaf:  y_c = X_c u_p,  x_c = L⁻ᵀ(h_c − Wᵀ y_c),  u_c = y_c + S_c x_c
+//! ```
+//!
+//! for a right-hand side given as body forces `f` (`b = Aᵀ f`) and/or per-joint
+//! generalized forces `b`. `x` solves `AᵀMA x = b + Aᵀf` exactly and `u = A x` comes for
+//! free: the body accelerations of the back substitution (4.6). Only the `dof × dof`
+//! blocks `D_c` are factorized (Cholesky, at most 6 × 6); the dependent blocks were
+//! inverted analytically in [`super::kin`].
+//!
+//! # Preconditioned conjugate gradients
+//!
+//! [`pcg`] is the generic PCG of notes C §1.9 (with the sign corrections) on flat vectors;
+//! [`Solver::pcg_reduced`] runs it on `AᵀMA` with a choice of preconditioner
+//! ([`Precond`]): none, block-Jacobi (the diagonal blocks `S_cᵀ I^C_c S_c` with the
+//! composite inertias `I^C`), or the tree-exact solve, for which it converges in one
+//! iteration. The integrator uses the tree-exact solve directly; the measured iteration
+//! counts of the three are in docs/methods.md.
+
+use nalgebra::{Matrix3, Matrix6, Vector3};
+
+use super::kin::TreeJointKin;
+use super::tree::{Tree, View, NONE};
+use crate::system::{MassProps, Twist, Wrench};
+
+/// Everything the recursions keep per tree position.
+#[derive(Clone, Debug)]
+pub struct Node {
+    /// Mass.
+    pub m: f64,
+    /// Inertia (body).
+    pub j: Matrix3<f64>,
+    /// Joint blocks at two configurations (the integrator alternates them).
+    pub kin: [TreeJointKin; 2],
+    /// `P_c` handed to the parent.
+    pub pm: Matrix6<f64>,
+    /// Columns of `W = I S L⁻ᵀ` (first `dof`).
+    pub w: [[f64; 6]; 6],
+    /// Cholesky factor `L` of `D = SᵀIS`, row-major lower triangle (first `dof`).
+    pub l: [[f64; 6]; 6],
+    /// Input body force.
+    pub f: Wrench,
+    /// Input generalized force on this joint's rates.
+    pub bq: [f64; 6],
+    /// Subtree bias `z` handed to the parent.
+    pub z: Wrench,
+    /// `L⁻¹ g`.
+    pub hh: [f64; 6],
+    /// Solution: this joint's `x`.
+    pub x: [f64; 6],
+    /// Solution: the body's `(A x)` (acceleration).
+    pub acc: Twist,
+    /// Scratch twist (velocity-product accelerations, projected velocities, ...).
+    pub a0: Twist,
+    /// Scratch twist.
+    pub tw: Twist,
+    /// Scratch rates.
+    pub rates: [f64; 6],
+    /// Scratch pose.
+    pub pose: crate::system::Pose,
+}
+
+impl Node {
+    /// A node for a body of mass properties `mp`.
+    pub fn new(mp: &MassProps) -> Node {
+        Node {
+            m: mp.m,
+            j: mp.j,
+            kin: [TreeJointKin::default(); 2],
+            pm: Matrix6::zeros(),
+            w: [[0.0; 6]; 6],
+            l: [[0.0; 6]; 6],
+            f: Wrench::default(),
+            bq: [0.0; 6],
+            z: Wrench::default(),
+            hh: [0.0; 6],
+            x: [0.0; 6],
+            acc: Twist::default(),
+            a0: Twist::default(),
+            tw: Twist::default(),
+            rates: [0.0; 6],
+            pose: crate::system::Pose::default(),
+        }
+    }
+
+    /// `M u` for a twist.
+    #[inline]
+    pub fn mass_mul(&self, u: &Twist) -> Wrench {
+        Wrench {
+            f: u.v * self.m,
+            t: self.j * u.w,
+        }
+    }
+}
+
+/// The joint blocks of a free root: `S = I₆`, no parent.
+pub fn free_kin() -> TreeJointKin {
+    let mut k = TreeJointKin {
+        dof: 6,
+        xw: Matrix3::zeros(),
+        ..TreeJointKin::default()
+    };
+    for (i, col) in k.s.iter_mut().enumerate() {
+        col[i] = 1.0;
+    }
+    k
+}
+
+#[inline]
+fn wrench6(w: &Wrench) -> [f64; 6] {
+    [w.f.x, w.f.y, w.f.z, w.t.x, w.t.y, w.t.z]
+}
+
+#[inline]
+fn add_wrench(a: &mut Wrench, b: &Wrench) {
+    a.f += b.f;
+    a.t += b.t;
+}
+
+#[inline]
+fn twist_add(a: &Twist, b: &Twist) -> Twist {
+    Twist {
+        v: a.v + b.v,
+        w: a.w + b.w,
+    }
+}
+
+/// `Xᵀ P X` for `X = [[I, xv], [0, xw]]`, by 3 × 3 blocks.
+#[inline]
+fn xtpx(k: &TreeJointKin, p: &Matrix6<f64>) -> Matrix6<f64> {
+    let a = p.fixed_view::<3, 3>(0, 0).into_owned();
+    let b = p.fixed_view::<3, 3>(0, 3).into_owned();
+    let c = p.fixed_view::<3, 3>(3, 0).into_owned();
+    let d = p.fixed_view::<3, 3>(3, 3).into_owned();
+    let t1 = a * k.xv + b * k.xw;
+    let br = k.xv.transpose() * t1 + k.xw.transpose() * (c * k.xv + d * k.xw);
+    let mut o = Matrix6::zeros();
+    o.fixed_view_mut::<3, 3>(0, 0).copy_from(&a);
+    o.fixed_view_mut::<3, 3>(0, 3).copy_from(&t1);
+    o.fixed_view_mut::<3, 3>(3, 0).copy_from(&t1.transpose());
+    o.fixed_view_mut::<3, 3>(3, 3).copy_from(&br);
+    o
+}
+
+/// `L⁻¹ g` (forward substitution, `n × n` lower `l`).
+#[inline]
+fn lsolve(l: &[[f64; 6]; 6], n: usize, g: &[f64; 6]) -> [f64; 6] {
+    let mut y = [0.0; 6];
+    for i in 0..n {
+        let mut s = g[i];
+        for k in 0..i {
+            s -= l[i][k] * y[k];
+        }
+        y[i] = s / l[i][i];
+    }
+    y
+}
+
+/// `L⁻ᵀ g` (back substitution).
+#[inline]
+fn ltsolve(l: &[[f64; 6]; 6], n: usize, g: &[f64; 6]) -> [f64; 6] {
+    let mut x = [0.0; 6];
+    for i in (0..n).rev() {
+        let mut s = g[i];
+        for k in i + 1..n {
+            s -= l[k][i] * x[k];
+        }
+        x[i] = s / l[i][i];
+    }
+    x
+}
+
+/// Factor one position given its articulated inertia `ia` (writes `l`, `w`, `pm`).
+/// Returns false when `D = SᵀIS` is not positive definite.
+#[inline]
+fn factor_node(node: &mut Node, k: usize, ia: &Matrix6<f64>) -> bool {
+    let kin = &node.kin[k];
+    let n = kin.dof;
+    // U = I S (columns)
+    let mut u = [[0.0; 6]; 6];
+    for c in 0..n {
+        let s = &kin.s[c];
+        for i in 0..6 {
+            let mut acc = 0.0;
+            for j in 0..6 {
+                acc += ia[(i, j)] * s[j];
+            }
+            u[c][i] = acc;
+        }
+    }
+    // D = Sᵀ U, Cholesky in place
+    let mut l = [[0.0; 6]; 6];
+    for i in 0..n {
+        for j in 0..=i {
+            let mut d: f64 = (0..6).map(|r| kin.s[i][r] * u[j][r]).sum();
+            for q in 0..j {
+                d -= l[i][q] * l[j][q];
+            }
+            if i == j {
+                if d.is_nan() || d <= 0.0 {
+                    return false;
+                }
+                l[i][i] = d.sqrt();
+            } else {
+                l[i][j] = d / l[j][j];
+            }
+        }
+    }
+    // W = U L⁻ᵀ: column c of W solves L-row recursion W_c = (U_c − Σ_{q<c} W_q l[c][q]) / l[c][c]
+    let mut w = [[0.0; 6]; 6];
+    for c in 0..n {
+        for i in 0..6 {
+            let mut s = u[c][i];
+            for q in 0..c {
+                s -= w[q][i] * l[c][q];
+            }
+            w[c][i] = s / l[c][c];
+        }
+    }
+    let mut p = *ia;
+    for wc in w.iter().take(n) {
+        for i in 0..6 {
+            for j in 0..6 {
+                p[(i, j)] -= wc[i] * wc[j];
+            }
+        }
+    }
+    node.l = l;
+    node.w = w;
+    node.pm = p;
+    true
+}
+
+/// Which preconditioner [`Solver::pcg_reduced`] uses.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Precond {
+    /// None (plain CG).
+    Identity,
+    /// Block-Jacobi: the diagonal blocks `S_cᵀ I^C_c S_c` of `AᵀMA` (composite inertias).
+    BlockJacobi,
+    /// The tree-exact solve ([`Solver::solve`]).
+    TreeExact,
+}
+
+/// Result of a PCG solve.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PcgStats {
+    /// Iterations made.
+    pub iterations: u32,
+    /// Final residual norm relative to the right-hand side's.
+    pub relative_residual: f64,
+    /// Whether the tolerance was met.
+    pub converged: bool,
+}
+
+/// The operator, preconditioner and observer of [`pcg`].
+pub trait PcgOps {
+    /// `out = A p`.
+    fn apply(&mut self, p: &[f64], out: &mut [f64]);
+    /// `z ≈ A⁻¹ r`.
+    fn precond(&mut self, r: &[f64], z: &mut [f64]);
+    /// Called after each update `x += α p`, right after [`PcgOps::apply`] computed `A p`
+    /// (lets a caller accumulate quantities linear in `x`).
+    fn step(&mut self, _alpha: f64) {}
+}
+
+/// Preconditioned conjugate gradients for an SPD operator (notes C §1.9, with the plus
+/// sign of the Schur complement): solves `A x = b` from `x = 0`, stopping when
+/// `|r|₂ ≤ rtol |b|₂` or `|r|_∞ ≤ atol`. `work` holds four vectors of `b`'s length.
+pub fn pcg<O: PcgOps>(
+    ops: &mut O,
+    b: &[f64],
+    x: &mut [f64],
+    work: &mut [Vec<f64>; 4],
+    rtol: f64,
+    atol: f64,
+    max_iter: u32,
+) -> PcgStats {
+    let n = b.len();
+    let [r, z, p, q] = work;
+    x.iter_mut().for_each(|v| *v = 0.0);
+    r[..n].copy_from_slice(b);
+    let bnorm = b.iter().map(|v| v * v).sum::<f64>().sqrt();
+    let inf = |v: &[f64]| v.iter().fold(0.0f64, |a, b| a.max(b.abs()));
+    if bnorm == 0.0 || inf(&r[..n]) <= atol {
+        return PcgStats {
+            iterations: 0,
+            relative_residual: 0.0,
+            converged: true,
+        };
+    }
+    ops.precond(&r[..n], &mut z[..n]);
+    p[..n].copy_from_slice(&z[..n]);
+    let mut rz: f64 = (0..n).map(|i| r[i] * z[i]).sum();
+    let mut it = 0;
+    loop {
+        it += 1;
+        ops.apply(&p[..n], &mut q[..n]);
+        let pq: f64 = (0..n).map(|i| p[i] * q[i]).sum();
+        if pq.is_nan() || pq <= 0.0 {
+            let rn = r[..n].iter().map(|v| v * v).sum::<f64>().sqrt();
+            return PcgStats {
+                iterations: it,
+                relative_residual: rn / bnorm,
+                converged: false,
+            };
+        }
+        let alpha = rz / pq;
+        for i in 0..n {
+            x[i] += alpha * p[i];
+            r[i] -= alpha * q[i];
+        }
+        ops.step(alpha);
+        let rn = r[..n].iter().map(|v| v * v).sum::<f64>().sqrt();
+        if rn <= rtol * bnorm || inf(&r[..n]) <= atol {
+            return PcgStats {
+                iterations: it,
+                relative_residual: rn / bnorm,
+                converged: true,
+            };
+        }
+        if it >= max_iter {
+            return PcgStats {
+                iterations: it,
+                relative_residual: rn / bnorm,
+                converged: false,
+            };
+        }
+        ops.precond(&r[..n], &mut z[..n]);
+        let rz_new: f64 = (0..n).map(|i| r[i] * z[i]).sum();
+        let beta = rz_new / rz;
+        rz = rz_new;
+        for i in 0..n {
+            p[i] = z[i] + beta * p[i];
+        }
+    }
+}
+
+/// The recursions over a [`Tree`]; the per-position data lives in a `[Node]` the caller
+/// owns (so an integrator can keep one per use).
+pub struct Solver<'t> {
+    /// The tree.
+    pub tree: &'t Tree,
+}
+
+impl Solver<'_> {
+    /// The parent's entry of position `start + i` (`None` for ground/free roots).
+    #[inline]
+    fn parent<'a>(
+        &self,
+        i: usize,
+        start: usize,
+        br: &'a [Node],
+        view: &'a View<'_, Node>,
+    ) -> Option<&'a Node> {
+        if i > 0 {
+            Some(&br[i - 1])
+        } else {
+            let p = self.tree.links[start].parent;
+            (p != NONE).then(|| view.get(p))
+        }
+    }
+
+    /// Factor `AᵀMA` at the joint blocks `kin[k]` (leaf → root). Returns the first
+    /// position whose `D = SᵀIS` is not positive definite, if any.
+    pub fn factor(&self, nodes: &mut [Node], k: usize) -> Option<usize> {
+        let bad = std::sync::atomic::AtomicUsize::new(NONE);
+        self.tree
+            .sched
+            .levels(nodes, true, &|start, br: &mut [Node], view| {
+                for i in (0..br.len()).rev() {
+                    let (head, tail) = br.split_at_mut(i + 1);
+                    let node = &mut head[i];
+                    let mut ia = Matrix6::zeros();
+                    for d in 0..3 {
+                        ia[(d, d)] = node.m;
+                    }
+                    ia.fixed_view_mut::<3, 3>(3, 3).copy_from(&node.j);
+                    let mut kids = |c: &Node| ia += xtpx(&c.kin[k], &c.pm);
+                    if !tail.is_empty() {
+                        kids(&tail[0]);
+                    } else {
+                        for &c in self.tree.children(start + i) {
+                            kids(view.get(c));
+                        }
+                    }
+                    if !factor_node(node, k, &ia) {
+                        bad.fetch_min(start + i, std::sync::atomic::Ordering::Relaxed);
+                    }
+                }
+            });
+        let b = bad.into_inner();
+        (b != NONE).then_some(b)
+    }
+
+    /// Solve `AᵀMA x = [b] + Aᵀ[f]` with the factorization of [`Solver::factor`]: the
+    /// inputs are `Node::bq` (if `with_b`) and `Node::f` (if `with_f`); the outputs
+    /// `Node::x` and `Node::acc = (A x)`.
+    pub fn solve(&self, nodes: &mut [Node], k: usize, with_f: bool, with_b: bool) {
+        let sched = &self.tree.sched;
+        sched.levels(nodes, true, &|start, br: &mut [Node], view| {
+            for i in (0..br.len()).rev() {
+                let mut beta = if with_f { br[i].f } else { Wrench::default() };
+                {
+                    let tail = &br[i + 1..];
+                    let mut kid = |c: &Node| add_wrench(&mut beta, &c.kin[k].transport_t(&c.z));
+                    if !tail.is_empty() {
+                        kid(&tail[0]);
+                    } else {
+                        for &c in self.tree.children(start + i) {
+                            kid(view.get(c));
+                        }
+                    }
+                }
+                let node = &mut br[i];
+                let kin = &node.kin[k];
+                let n = kin.dof;
+                let mut g = [0.0; 6];
+                kin.s_t(&beta, &mut g);
+                if with_b {
+                    for q in 0..n {
+                        g[q] += node.bq[q];
+                    }
+                }
+                let hh = lsolve(&node.l, n, &g);
+                let mut z = wrench6(&beta);
+                for q in 0..n {
+                    for r in 0..6 {
+                        z[r] -= node.w[q][r] * hh[q];
+                    }
+                }
+                node.hh = hh;
+                node.z = Wrench {
+                    f: Vector3::new(z[0], z[1], z[2]),
+                    t: Vector3::new(z[3], z[4], z[5]),
+                };
+            }
+        });
+        sched.levels(nodes, false, &|start, br: &mut [Node], view| {
+            for i in 0..br.len() {
+                let y = match self.parent(i, start, br, view) {
+                    Some(p) => br_kin(&br[i], k).transport(&p.acc),
+                    None => Twist::default(),
+                };
+                let node = &mut br[i];
+                let n = node.kin[k].dof;
+                let y6 = [y.v.x, y.v.y, y.v.z, y.w.x, y.w.y, y.w.z];
+                let mut rhs = node.hh;
+                for q in 0..n {
+                    rhs[q] -= (0..6).map(|r| node.w[q][r] * y6[r]).sum::<f64>();
+                }
+                let x = ltsolve(&node.l, n, &rhs);
+                node.x = x;
+                node.acc = twist_add(&y, &node.kin[k].s_mul(&x));
+            }
+        });
+    }
+
+    /// `Node::acc = A x` for `x` in `Node::x` (root → leaf).
+    pub fn forward(&self, nodes: &mut [Node], k: usize) {
+        self.tree
+            .sched
+            .levels(nodes, false, &|start, br: &mut [Node], view| {
+                for i in 0..br.len() {
+                    let y = match self.parent(i, start, br, view) {
+                        Some(p) => br_kin(&br[i], k).transport(&p.acc),
+                        None => Twist::default(),
+                    };
+                    let node = &mut br[i];
+                    node.acc = twist_add(&y, &node.kin[k].s_mul(&node.x));
+                }
+            });
+    }
+
+    /// `Node::x = Aᵀ f` for the body forces in `Node::f` (leaf → root; uses `Node::z`
+    /// for the subtree forces).
+    pub fn backward(&self, nodes: &mut [Node], k: usize) {
+        self.tree
+            .sched
+            .levels(nodes, true, &|start, br: &mut [Node], view| {
+                for i in (0..br.len()).rev() {
+                    let mut tot = br[i].f;
+                    {
+                        let tail = &br[i + 1..];
+                        let mut kid = |c: &Node| add_wrench(&mut tot, &c.kin[k].transport_t(&c.z));
+                        if !tail.is_empty() {
+                            kid(&tail[0]);
+                        } else {
+                            for &c in self.tree.children(start + i) {
+                                kid(view.get(c));
+                            }
+                        }
+                    }
+                    let node = &mut br[i];
+                    node.z = tot;
+                    let mut x = [0.0; 6];
+                    node.kin[k].s_t(&tot, &mut x);
+                    node.x = x;
+                }
+            });
+    }
+
+    /// The operator `AᵀMA` matrix-free: `Node::x ← AᵀMA Node::x` (forward `A`, the
+    /// constant body blocks `M_j`, backward `Aᵀ`).
+    pub fn apply(&self, nodes: &mut [Node], k: usize) {
+        self.forward(nodes, k);
+        self.tree
+            .sched
+            .nodes(nodes, &|_, n: &mut Node| n.f = n.mass_mul(&n.acc));
+        self.backward(nodes, k);
+    }
+
+    /// Gather `Node::x` into the flat coordinate vector `out`.
+    pub fn gather_x(&self, nodes: &[Node], out: &mut [f64]) {
+        for (p, l) in self.tree.links.iter().enumerate() {
+            out[l.off..l.off + l.dof].copy_from_slice(&nodes[p].x[..l.dof]);
+        }
+    }
+
+    /// Scatter the flat coordinate vector `v` into `Node::x` (`to_b`: into `Node::bq`).
+    pub fn scatter(&self, nodes: &mut [Node], v: &[f64], to_b: bool) {
+        for (p, l) in self.tree.links.iter().enumerate() {
+            let dst = if to_b {
+                &mut nodes[p].bq
+            } else {
+                &mut nodes[p].x
+            };
+            dst[..l.dof].copy_from_slice(&v[l.off..l.off + l.dof]);
+        }
+    }
+
+    /// Block-Jacobi preconditioner data: the Cholesky factors of `S_cᵀ I^C_c S_c` (composite
+    /// inertias), stored in `Node::l` (overwrites the factorization).
+    pub fn factor_block_jacobi(&self, nodes: &mut [Node], k: usize) {
+        self.tree
+            .sched
+            .levels(nodes, true, &|start, br: &mut [Node], view| {
+                for i in (0..br.len()).rev() {
+                    let (head, tail) = br.split_at_mut(i + 1);
+                    let node = &mut head[i];
+                    let mut ic = Matrix6::zeros();
+                    for d in 0..3 {
+                        ic[(d, d)] = node.m;
+                    }
+                    ic.fixed_view_mut::<3, 3>(3, 3).copy_from(&node.j);
+                    let mut kids = |c: &Node| ic += xtpx(&c.kin[k], &c.pm);
+                    if !tail.is_empty() {
+                        kids(&tail[0]);
+                    } else {
+                        for &c in self.tree.children(start + i) {
+                            kids(view.get(c));
+                        }
+                    }
+                    // composite inertia handed up unchanged (no projection)
+                    let ok = factor_node(node, k, &ic);
+                    debug_assert!(ok);
+                    node.pm = ic;
+                }
+            });
+    }
+
+    /// Solve `AᵀMA x = b` by PCG with preconditioner `pc` (for measurements and tests;
+    /// the integrator applies the tree-exact solve directly). `b` and `x` are flat
+    /// coordinate vectors. Factorizes as needed.
+    #[allow(clippy::too_many_arguments)]
+    pub fn pcg_reduced(
+        &self,
+        nodes: &mut [Node],
+        k: usize,
+        pc: Precond,
+        b: &[f64],
+        x: &mut [f64],
+        rtol: f64,
+        max_iter: u32,
+    ) -> PcgStats {
+        match pc {
+            Precond::TreeExact => {
+                let bad = self.factor(nodes, k);
+                assert!(bad.is_none(), "AᵀMA not positive definite");
+            }
+            Precond::BlockJacobi => self.factor_block_jacobi(nodes, k),
+            Precond::Identity => {}
+        }
+        let n = b.len();
+        let mut work = [vec![0.0; n], vec![0.0; n], vec![0.0; n], vec![0.0; n]];
+        let mut ops = ReducedOps {
+            solver: self,
+            nodes,
+            k,
+            pc,
+        };
+        pcg(&mut ops, b, x, &mut work, rtol, 0.0, max_iter)
+    }
+}
+
+/// [`PcgOps`] of `AᵀMA` on flat coordinate vectors.
+struct ReducedOps<'s, 't, 'n> {
+    solver: &'s Solver<'t>,
+    nodes: &'n mut [Node],
+    k: usize,
+    pc: Precond,
+}
+
+impl PcgOps for ReducedOps<'_, '_, '_> {
+    fn apply(&mut self, p: &[f64], out: &mut [f64]) {
+        self.solver.scatter(self.nodes, p, false);
+        self.solver.apply(self.nodes, self.k);
+        self.solver.gather_x(self.nodes, out);
+    }
+
+    fn precond(&mut self, r: &[f64], z: &mut [f64]) {
+        let s = self.solver;
+        match self.pc {
+            Precond::Identity => z.copy_from_slice(r),
+            Precond::BlockJacobi => {
+                for (p, l) in s.tree.links.iter().enumerate() {
+                    let mut g = [0.0; 6];
+                    g[..l.dof].copy_from_slice(&r[l.off..l.off + l.dof]);
+                    let y = lsolve(&self.nodes[p].l, l.dof, &g);
+                    let x = ltsolve(&self.nodes[p].l, l.dof, &y);
+                    z[l.off..l.off + l.dof].copy_from_slice(&x[..l.dof]);
+                }
+            }
+            Precond::TreeExact => {
+                s.scatter(self.nodes, r, true);
+                s.solve(self.nodes, self.k, false, true);
+                s.gather_x(self.nodes, z);
+            }
+        }
+    }
+}
+
+#[inline]
+fn br_kin(n: &Node, k: usize) -> &TreeJointKin {
+    &n.kin[k]
+}
