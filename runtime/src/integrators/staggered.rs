@@ -94,6 +94,10 @@ pub struct TwoStage {
     epsilon: f64,
     /// Regularization per row (ε holonomic, εh nonholonomic).
     e: Vec<f64>,
+    /// The regularization of the current LINT attempt.
+    e_eff: Vec<f64>,
+    lambda_guess: Vec<f64>,
+    regularized_steps: u64,
     tau: f64,
     t0: f64,
     half_steps: u64,
@@ -120,7 +124,8 @@ pub struct TwoStage {
     res: Vec<f64>,
     dl: Vec<f64>,
     ks: KSolver,
-    /// Tolerance on position residuals (m or rad).
+    /// Relative tolerance of the LINT Newton iteration (times 1 + the largest distance of a
+    /// body from the origin, in m or rad).
     tol: f64,
     // statistics
     iterations: u64,
@@ -273,7 +278,6 @@ impl TwoStage {
             pose: pose.clone(),
             vel: vel.clone(),
         };
-        let mut scale: f64 = 1.0;
         for i in 0..nb {
             let net = Wrench {
                 f: q0[i].f - flam[i].f,
@@ -285,7 +289,6 @@ impl TwoStage {
             let dr = vel[i].v * (h / 2.0) + a.v * (h * h / 8.0);
             let phi = vel[i].w * (h / 2.0) + a.w * (h * h / 8.0);
             seq_a.pose[i] = common::rotate_body(&pose[i], dr, phi);
-            scale = scale.max(pose[i].r.norm());
         }
 
         let mut s = TwoStage {
@@ -295,6 +298,9 @@ impl TwoStage {
             single_stage,
             paper_literal,
             epsilon,
+            e_eff: e.clone(),
+            lambda_guess: vec![0.0; m],
+            regularized_steps: 0,
             e,
             tau: t0,
             t0,
@@ -319,7 +325,7 @@ impl TwoStage {
             res: vec![0.0; m],
             dl: vec![0.0; m],
             ks,
-            tol: 1e-13 * scale,
+            tol: 1e-13,
             iterations: 0,
             lints: 0,
             max_iterations: 0,
@@ -392,6 +398,34 @@ impl TwoStage {
     /// Staggered LINT (exact form) for sequence `x`: Newton on λ until the positions after the
     /// CINT satisfy `Φ = ε(λ − λ⁰)`. Leaves the advanced sequence in `self.trial`.
     fn lint_exact<S: System>(&mut self, sys: &S, x: usize) -> Result<u32, StepError> {
+        // Near a singular configuration (links that line up, lock-up) the regularization of
+        // the default ε can be too small for the iteration to converge: retry the step with it
+        // raised ×10³ at a time, up to about h²K_rr (each such step is counted), then go back.
+        self.lambda_guess.copy_from_slice(&self.lambda);
+        let mut last = None;
+        for (k, scale) in [1.0, 1e3, 1e6, 1e9].into_iter().enumerate() {
+            if k > 0 {
+                self.lambda.copy_from_slice(&self.lambda_guess);
+            }
+            for r in 0..self.e.len() {
+                self.e_eff[r] = self.e[r] * scale;
+            }
+            match self.lint_exact_with(sys, x) {
+                Ok(it) => {
+                    if k > 0 {
+                        self.regularized_steps += 1;
+                    }
+                    return Ok(it);
+                }
+                Err(e @ StepError::NoConvergence { .. }) => last = Some(e),
+                Err(e) => return Err(e),
+            }
+        }
+        Err(last.expect("at least one attempt"))
+    }
+
+    /// One attempt of [`Self::lint_exact`] with the regularization `self.e_eff`.
+    fn lint_exact_with<S: System>(&mut self, sys: &S, x: usize) -> Result<u32, StepError> {
         let layout = sys.layout();
         let h = self.h;
         let m = layout.rows;
@@ -402,9 +436,15 @@ impl TwoStage {
         // 2–3 on ordinary scenes.
         self.ks
             .assemble(&self.ce.jac, &layout.mass, h * h, 0.0, Some(&self.active));
-        self.ks.add_diagonal(&self.e, Some(&self.active));
+        self.ks.add_diagonal(&self.e_eff, Some(&self.active));
         self.factor("LINT (εI + h²BM⁻¹Bᵀ)")?;
         let t_end = self.tau + h;
+        let extent = self.seq[x]
+            .pose
+            .iter()
+            .fold(0.0f64, |a, p| a.max(p.r.norm()));
+        let tol = self.tol * (1.0 + extent);
+        let mut prev = f64::INFINITY;
         for it in 0..MAX_NEWTON {
             bt_lambda(layout, &self.ce, &self.lambda, &self.active, &mut self.flam);
             let trial = std::mem::replace(
@@ -445,12 +485,18 @@ impl TwoStage {
                 } else {
                     h * 0.5 * (self.ce_trial.phi[r] + self.tmp[r] + self.ce.bias[r])
                 };
-                self.res[r] = phi - self.e[r] * (self.lambda[r] - self.lambda0[r]);
+                self.res[r] = phi - self.e_eff[r] * (self.lambda[r] - self.lambda0[r]);
                 worst = worst.max(self.res[r].abs());
             }
-            if worst <= self.tol {
+            if !worst.is_finite() || self.res.iter().any(|r| !r.is_finite()) {
+                break;
+            }
+            // Converged at the tolerance relative to the current positions (round-off in Φ
+            // grows with the distance from the origin), or stagnating at round-off.
+            if worst <= tol || (it >= 2 && worst <= 1e3 * tol && worst >= 0.5 * prev) {
                 return Ok(it);
             }
+            prev = worst;
             self.dl.copy_from_slice(&self.res);
             self.ks.solve_in_place(&mut self.dl);
             for r in 0..m {
@@ -817,6 +863,7 @@ impl<S: System> Integrator<S> for TwoStage {
                 self.iterations as f64 / self.lints.max(1) as f64,
             ));
             v.push(("newton_iterations_max", self.max_iterations as f64));
+            v.push(("regularized_steps", self.regularized_steps as f64));
         }
         v.push(("min_pivot_ratio", self.min_pivot_ratio));
         v

@@ -21,6 +21,11 @@
 //! within 5 s and Newton stalled. The midpoint impulse has no such mode, keeps second order,
 //! and is still one simultaneous Newton solve for velocities and multipliers.
 //!
+//! After the iteration the velocities are projected onto `B u̇ + b = 0` at the end
+//! configuration (as in RATTLE): position-level constraints cannot see a velocity that
+//! alternates in sign from step to step, and a velocity jump (a lock engaging, an inconsistent
+//! start) would otherwise leave such a mode undamped, with multipliers growing like 1/h.
+//!
 //! Newton iterations use the matrix
 //! `[[M + δG + δC_t + δ²K_t, B_midᵀ], [B₁, 0]]` (unknown `hμ`; holonomic residuals scaled by
 //! 1/δ), where `G` is the gyroscopic tangent `ω̃J − (Jω)~` and `K_t`, `C_t` the tangent stiffness
@@ -32,7 +37,7 @@ use nalgebra::{DMatrix, Matrix3, Quaternion, Vector3};
 
 use super::common::{self, accel, bt_lambda, qbar, Index1};
 use super::{Integrator, StartError, State, StepError, StepInfo};
-use crate::linalg::DenseLu;
+use crate::linalg::{Backend, Definiteness, DenseLu, KSolver, KSolverOptions, DEFAULT_PIVOT_TOL};
 use crate::math::{rotation, skew};
 use crate::system::{ConstraintEval, Need, Pose, RowKind, System, Twist, Wrench};
 
@@ -64,6 +69,8 @@ pub struct Trapezoid {
     ce_mid: ConstraintEval,
     jac: DMatrix<f64>,
     lu: DenseLu,
+    proj: KSolver,
+    vres: Vec<f64>,
     z: Vec<f64>,
     fd_base: Vec<Wrench>,
     fd_pose: Vec<Pose>,
@@ -136,6 +143,16 @@ impl Trapezoid {
             ce_mid: ConstraintEval::new(m),
             jac: DMatrix::zeros(n, n),
             lu: DenseLu::new(n),
+            proj: KSolver::new(
+                layout,
+                KSolverOptions {
+                    backend: Backend::Auto,
+                    definiteness: Definiteness::SemiDefinite {
+                        tol: DEFAULT_PIVOT_TOL,
+                    },
+                },
+            )?,
+            vres: vec![0.0; m],
             z: vec![0.0; n],
             fd_base: vec![Wrench::default(); nb],
             pos_scale,
@@ -408,8 +425,39 @@ impl<S: System> Integrator<S> for Trapezoid {
                 residual,
             });
         }
-        // accept (positions and Q̄ at the converged velocities)
+        // Velocity projection onto B u̇ + b = 0 at the end configuration (as in RATTLE): the
+        // position-level constraints cannot see a velocity that alternates in sign from step
+        // to step (it does not move the trapezoidal positions), and a velocity jump — a lock
+        // engaging, an inconsistent start — would otherwise leave such a mode undamped.
         self.positions();
+        sys.constraints(t1, &self.pose1, &self.vel1, Need::JAC, &mut self.ce);
+        common::velocity_residual(layout, &self.ce, &self.vel1, &mut self.vres);
+        if self
+            .vres
+            .iter()
+            .zip(&self.active)
+            .any(|(v, a)| *a && *v != 0.0)
+        {
+            for (v, a) in self.vres.iter_mut().zip(&self.active) {
+                if !*a {
+                    *v = 0.0;
+                }
+            }
+            self.proj
+                .assemble(&self.ce.jac, &layout.mass, 1.0, 0.0, Some(&self.active));
+            self.proj.factor().map_err(|e| StepError::Linalg {
+                what: "trapezoid velocity projection",
+                message: e.to_string(),
+            })?;
+            self.proj.solve_in_place(&mut self.vres);
+            bt_lambda(layout, &self.ce, &self.vres, &self.active, &mut self.flam);
+            for i in 0..nb {
+                let d = accel(&layout.mass[i], &self.flam[i]);
+                self.vel1[i].v -= d.v;
+                self.vel1[i].w -= d.w;
+            }
+        }
+        // accept (positions and Q̄ at the converged velocities)
         sys.applied(t1, &self.pose1, &self.vel1, &mut self.applied);
         qbar(layout, &self.applied, &self.vel1, &mut self.qbar_n);
         self.pose.copy_from_slice(&self.pose1);
