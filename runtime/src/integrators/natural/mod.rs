@@ -435,6 +435,38 @@ impl Natural {
         &self.tree
     }
 
+    /// PCG on `AᵀMA x = b` at the current configuration, for a random right-hand side
+    /// `b` (seeded), with preconditioner `pc`, relative tolerance `rtol`: the iteration
+    /// counts behind the preconditioner choice (docs/methods.md). Allocates.
+    pub fn measure_pcg<S: System>(
+        &mut self,
+        sys: &S,
+        pc: reduced::Precond,
+        rtol: f64,
+        seed: u64,
+    ) -> reduced::PcgStats {
+        // kin[cur] holds the blocks at the positions of seq[x] (the next half step redoes
+        // the factorization this overwrites)
+        let k = self.cur;
+        let pose = std::mem::take(&mut self.seq[self.x].pose);
+        self.kinematics(sys, k, &pose);
+        self.seq[self.x].pose = pose;
+        let nc = self.tree.ncoord;
+        let mut state = seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1;
+        let b: Vec<f64> = (0..nc)
+            .map(|_| {
+                state ^= state << 13;
+                state ^= state >> 7;
+                state ^= state << 17;
+                (state >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+            })
+            .collect();
+        let mut x = vec![0.0; nc];
+        let solver = Solver { tree: &self.tree };
+        let max_iter = (10 * nc).max(100) as u32;
+        solver.pcg_reduced(&mut self.nodes, k, pc, &b, &mut x, rtol, max_iter)
+    }
+
     /// Set the smallest level size run in parallel (for measurements).
     pub fn set_par_min(&mut self, n: usize) {
         self.tree.sched.par_min = n.max(2);
@@ -839,6 +871,19 @@ impl Natural {
             }
             self.active.copy_from_slice(&self.next_active);
         }
+    }
+}
+
+/// Run `f` on a dedicated rayon pool of `threads` threads (the recursions' parallel
+/// branches and per-body passes then use at most that many). For benchmarks and for
+/// callers that want to bound the parallelism; building the pool allocates.
+pub fn with_threads<R: Send>(threads: usize, f: impl FnOnce() -> R + Send) -> R {
+    match rayon::ThreadPoolBuilder::new()
+        .num_threads(threads.max(1))
+        .build()
+    {
+        Ok(pool) => pool.install(f),
+        Err(_) => f(),
     }
 }
 

@@ -1,0 +1,308 @@
+//! Benchmarks of natural partitioning, recorded in BENCHMARKS.md. Not a test (ignored);
+//! every figure of one report comes from one run, side by side:
+//!
+//! ```text
+//! cargo test -p mbdc-tests --test bench_natural_partitioning -- --ignored --nocapture
+//! ```
+//!
+//! (test profile: opt-level 2.) Time per step is the best of three batches of steps after a
+//! warm-up; memory is the bytes the integrator (and the interpreter) hold, counted by a
+//! global allocator (allocated minus freed during construction).
+
+use std::alloc::{GlobalAlloc, Layout, System as SysAlloc};
+use std::sync::atomic::{AtomicIsize, Ordering};
+use std::time::Instant;
+
+use mbdc_runtime::integrators::natural::{self, reduced::Precond, Natural};
+use mbdc_runtime::integrators::{self, Integrator, State};
+use mbdc_runtime::interp::Interp;
+use mbdc_runtime::scene::{MethodSpec, Scene};
+use mbdc_runtime::system::{ConstraintEval, Need, System};
+
+struct Counting;
+
+static LIVE: AtomicIsize = AtomicIsize::new(0);
+
+unsafe impl GlobalAlloc for Counting {
+    unsafe fn alloc(&self, l: Layout) -> *mut u8 {
+        LIVE.fetch_add(l.size() as isize, Ordering::Relaxed);
+        SysAlloc.alloc(l)
+    }
+    unsafe fn dealloc(&self, p: *mut u8, l: Layout) {
+        LIVE.fetch_sub(l.size() as isize, Ordering::Relaxed);
+        SysAlloc.dealloc(p, l)
+    }
+    unsafe fn realloc(&self, p: *mut u8, l: Layout, new: usize) -> *mut u8 {
+        LIVE.fetch_add(new as isize - l.size() as isize, Ordering::Relaxed);
+        SysAlloc.realloc(p, l, new)
+    }
+}
+
+#[global_allocator]
+static A: Counting = Counting;
+
+fn live() -> isize {
+    LIVE.load(Ordering::Relaxed)
+}
+
+fn load(name: &str, param: &str, n: usize) -> Scene {
+    let path = format!("{}/../models/bench/{name}", env!("CARGO_MANIFEST_DIR"));
+    let o: mbdc_compiler::Override = format!("{param}={n}").parse().unwrap();
+    let loaded = mbdc_compiler::load_file(&path, &[o]);
+    match loaded.scene {
+        Some(s) => s,
+        None => panic!("{name}: {}", loaded.render_plain()),
+    }
+}
+
+/// Seconds per step (best of three batches of `steps`), bytes held by the integrator and
+/// by the interpreter, and the integrator's statistics.
+struct Timing {
+    per_step: f64,
+    integrator_bytes: isize,
+    interp_bytes: isize,
+    stats: Vec<(&'static str, f64)>,
+}
+
+fn time_method(scene: &Scene, method: &MethodSpec, steps: usize) -> Timing {
+    let m0 = live();
+    let sys = Interp::new(scene).expect("interpretable");
+    let interp_bytes = live() - m0;
+    let start = State::initial(&sys);
+    let m1 = live();
+    let mut it = integrators::make(method, &sys, scene.simulate.step, &start).expect("start");
+    let integrator_bytes = live() - m1;
+    for _ in 0..2 {
+        it.step(&sys).expect("warm-up step");
+    }
+    let mut best = f64::INFINITY;
+    for _ in 0..3 {
+        let t = Instant::now();
+        for _ in 0..steps {
+            it.step(&sys).expect("step");
+        }
+        best = best.min(t.elapsed().as_secs_f64() / steps as f64);
+    }
+    Timing {
+        per_step: best,
+        integrator_bytes,
+        interp_bytes,
+        stats: it.stats(),
+    }
+}
+
+fn np() -> MethodSpec {
+    MethodSpec::default_for("natural_partitioning").unwrap()
+}
+
+fn steps_for(bodies: usize) -> usize {
+    (60_000 / bodies.max(1)).clamp(5, 5_000)
+}
+
+fn stat(t: &Timing, name: &str) -> f64 {
+    t.stats
+        .iter()
+        .find(|(n, _)| *n == name)
+        .map_or(f64::NAN, |(_, v)| *v)
+}
+
+#[test]
+#[ignore]
+fn bench_natural_partitioning() {
+    println!("threads available: {}", rayon_threads());
+
+    // 1. Scaling.
+    println!("\n## Scaling (natural_partitioning, 1 thread)\n");
+    println!("| scene | N | bodies | µs/step | ns/(step·body) | t(N)/t(N/10) | integrator memory | bytes/body | interpreter memory |");
+    println!("|---|---|---|---|---|---|---|---|---|");
+    for name in ["chain_planar.mbd", "chain_spatial.mbd", "tree8.mbd"] {
+        let mut prev: Option<f64> = None;
+        for n in [10usize, 100, 1000, 10000] {
+            let scene = load(name, "N", n);
+            let nb = scene.bodies.len();
+            let t = natural::with_threads(1, || time_method(&scene, &np(), steps_for(nb)));
+            println!(
+                "| {name} | {n} | {nb} | {:.1} | {:.0} | {} | {:.2} MB | {} | {:.2} MB |",
+                t.per_step * 1e6,
+                t.per_step * 1e9 / nb as f64,
+                prev.map_or("—".into(), |p| format!("{:.2}", t.per_step / p)),
+                t.integrator_bytes as f64 / 1e6,
+                t.integrator_bytes / nb as isize,
+                t.interp_bytes as f64 / 1e6,
+            );
+            prev = Some(t.per_step);
+        }
+    }
+
+    // 2. Against the Lagrange-multiplier staggered method at N = 100.
+    println!("\n## N = 100: natural_partitioning against staggered (1 thread)\n");
+    println!("| scene | bodies | natural µs/step | staggered µs/step | staggered / natural |");
+    println!("|---|---|---|---|---|");
+    for name in ["chain_planar.mbd", "chain_spatial.mbd", "tree8.mbd"] {
+        let scene = load(name, "N", 100);
+        let nb = scene.bodies.len();
+        let (a, b) = natural::with_threads(1, || {
+            let a = time_method(&scene, &np(), steps_for(nb));
+            let b = time_method(
+                &scene,
+                &MethodSpec::default_for("staggered").unwrap(),
+                steps_for(nb) / 4,
+            );
+            (a, b)
+        });
+        println!(
+            "| {name} | {nb} | {:.1} | {:.1} | {:.1} |",
+            a.per_step * 1e6,
+            b.per_step * 1e6,
+            b.per_step / a.per_step
+        );
+    }
+
+    // 3. Two threads against one.
+    println!("\n## Threads: two against one\n");
+    println!("| scene | N | 1 thread µs/step | 2 threads µs/step | speed-up |");
+    println!("|---|---|---|---|---|");
+    for (name, n) in [
+        ("tree8.mbd", 10000usize),
+        ("tree8.mbd", 1000),
+        ("chain_spatial.mbd", 10000),
+    ] {
+        let scene = load(name, "N", n);
+        let nb = scene.bodies.len();
+        let t1 = natural::with_threads(1, || time_method(&scene, &np(), steps_for(nb)));
+        let t2 = natural::with_threads(2, || time_method(&scene, &np(), steps_for(nb)));
+        println!(
+            "| {name} | {n} | {:.0} | {:.0} | {:.2} |",
+            t1.per_step * 1e6,
+            t2.per_step * 1e6,
+            t1.per_step / t2.per_step
+        );
+    }
+
+    // 4. The parallel threshold: tree8 with every level parallel or none, 2 threads.
+    println!("\n## Parallel threshold (tree8, 2 threads): always parallel against never\n");
+    println!("| N | bodies | never µs/step | always µs/step | always / never |");
+    println!("|---|---|---|---|---|");
+    for n in [10usize, 100, 400, 1000, 4000] {
+        let scene = load("tree8.mbd", "N", n);
+        let nb = scene.bodies.len();
+        let run = |par_min: usize| {
+            natural::with_threads(2, || {
+                let sys = Interp::new(&scene).unwrap();
+                let st = State::initial(&sys);
+                let mut it = Natural::new(&sys, scene.simulate.step, None, 1e-12, &st).unwrap();
+                it.set_par_min(par_min);
+                for _ in 0..2 {
+                    Integrator::<Interp>::step(&mut it, &sys).unwrap();
+                }
+                let steps = steps_for(nb);
+                let mut best = f64::INFINITY;
+                for _ in 0..3 {
+                    let t = Instant::now();
+                    for _ in 0..steps {
+                        Integrator::<Interp>::step(&mut it, &sys).unwrap();
+                    }
+                    best = best.min(t.elapsed().as_secs_f64() / steps as f64);
+                }
+                best
+            })
+        };
+        let never = run(usize::MAX);
+        let always = run(2);
+        println!(
+            "| {n} | {nb} | {:.1} | {:.1} | {:.2} |",
+            never * 1e6,
+            always * 1e6,
+            always / never
+        );
+    }
+
+    // 5. Closed loops: the ladder.
+    println!("\n## Closed loops: ladder of K four-bar cells (1 thread)\n");
+    println!("| K | bodies | cut rows | natural µs/step | Newton it./half step | PCG it./solve (max) | staggered µs/step | max loop violation after 2000 steps |");
+    println!("|---|---|---|---|---|---|---|---|");
+    for k in [10usize, 30, 100] {
+        let scene = load("ladder.mbd", "K", k);
+        let nb = scene.bodies.len();
+        let (t, ts, viol) = natural::with_threads(1, || {
+            let t = time_method(&scene, &np(), steps_for(nb).min(500));
+            let ts = time_method(
+                &scene,
+                &MethodSpec::default_for("staggered").unwrap(),
+                steps_for(nb).min(200),
+            );
+            // violation after 2000 steps (0.2 s)
+            let sys = Interp::new(&scene).unwrap();
+            let st = State::initial(&sys);
+            let mut it = integrators::make(&np(), &sys, scene.simulate.step, &st).unwrap();
+            let mut out = State::initial(&sys);
+            let mut ce = ConstraintEval::new(sys.layout().rows);
+            let mut worst: f64 = 0.0;
+            for _ in 0..2000 {
+                it.step(&sys).unwrap();
+                it.state(&sys, &mut out);
+                sys.constraints(out.t, &out.pose, &out.twist, Need::PHI, &mut ce);
+                worst = ce.phi.iter().fold(worst, |a, p| a.max(p.abs()));
+            }
+            (t, ts, worst)
+        });
+        println!(
+            "| {k} | {nb} | {} | {:.0} | {:.2} | {:.1} ({:.0}) | {:.0} | {:.1e} m |",
+            stat(&t, "cut_rows"),
+            t.per_step * 1e6,
+            stat(&t, "newton_iterations_mean"),
+            stat(&t, "pcg_iterations_mean"),
+            stat(&t, "pcg_iterations_max"),
+            ts.per_step * 1e6,
+            viol
+        );
+    }
+
+    // 6. Preconditioners of the PCG on AᵀMA.
+    println!("\n## PCG on AᵀMA: iterations to a relative residual of 1e-10\n");
+    println!("| scene | N | coordinates | none | block-Jacobi | tree-exact |");
+    println!("|---|---|---|---|---|---|");
+    for name in ["chain_planar.mbd", "chain_spatial.mbd", "tree8.mbd"] {
+        for n in [10usize, 100, 1000] {
+            let scene = load(name, "N", n);
+            let sys = Interp::new(&scene).unwrap();
+            let st = State::initial(&sys);
+            let mut it = Natural::new(&sys, scene.simulate.step, None, 1e-12, &st).unwrap();
+            for _ in 0..10 {
+                Integrator::<Interp>::step(&mut it, &sys).unwrap();
+            }
+            let nc = it.tree().ncoord;
+            let mut cells = Vec::new();
+            for pc in [Precond::Identity, Precond::BlockJacobi, Precond::TreeExact] {
+                let s = it.measure_pcg(&sys, pc, 1e-10, 7);
+                cells.push(if s.converged {
+                    format!("{}", s.iterations)
+                } else {
+                    format!("> {} (residual {:.0e})", s.iterations, s.relative_residual)
+                });
+            }
+            println!(
+                "| {name} | {n} | {nc} | {} | {} | {} |",
+                cells[0], cells[1], cells[2]
+            );
+        }
+    }
+}
+
+fn rayon_threads() -> usize {
+    std::thread::available_parallelism().map_or(1, |n| n.get())
+}
+
+/// Profiling aid: `NP_SCENE=tree8.mbd NP_N=1000 NP_STEPS=200 cargo test ... profile_natural
+/// -- --ignored` runs one scene (for `perf record`).
+#[test]
+#[ignore]
+fn profile_natural() {
+    let name = std::env::var("NP_SCENE").unwrap_or("chain_spatial.mbd".into());
+    let n: usize = std::env::var("NP_N").map_or(1000, |v| v.parse().unwrap());
+    let steps: usize = std::env::var("NP_STEPS").map_or(200, |v| v.parse().unwrap());
+    let param = if name.starts_with("ladder") { "K" } else { "N" };
+    let scene = load(&name, param, n);
+    let t = natural::with_threads(1, || time_method(&scene, &np(), steps));
+    println!("{name} N={n}: {:.1} µs/step", t.per_step * 1e6);
+}
