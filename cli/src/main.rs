@@ -8,6 +8,7 @@
 //! derive) and a `run(args) -> ExitCode` function; add a variant to [`Command`] to add one.
 
 mod commands;
+mod plot;
 mod render;
 
 use std::process::ExitCode;
@@ -30,6 +31,10 @@ enum Command {
     Fmt(commands::fmt::Args),
     /// Simulate a scene and write its output folder (CSV time series, summary.json).
     Run(commands::run::Args),
+    /// Run a scene across step sizes and methods: error vs CPU time (work–precision).
+    Sweep(commands::sweep::Args),
+    /// Draw the plots of a run's output folder, or chosen quantities against time.
+    Plot(commands::plot::Args),
 }
 
 fn main() -> ExitCode {
@@ -38,5 +43,7 @@ fn main() -> ExitCode {
         Command::Check(a) => commands::check::run(a),
         Command::Fmt(a) => commands::fmt::run(a),
         Command::Run(a) => commands::run::run(a),
+        Command::Sweep(a) => commands::sweep::run(a),
+        Command::Plot(a) => commands::plot::run(a),
     }
 }

@@ -2,4 +2,6 @@
 
 pub mod check;
 pub mod fmt;
+pub mod plot;
 pub mod run;
+pub mod sweep;

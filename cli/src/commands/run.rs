@@ -252,7 +252,7 @@ pub fn simulate<S: System>(sys: &S, scene: &Scene, args: &Args) -> ExitCode {
     let mut progress = Progress::new(cfg.duration, args.quiet);
     let result = run::run_to_dir(sys, &cfg, meta, &scene.simulate.output, &dir, &mut progress);
     progress.finish();
-    match result {
+    let code = match result {
         Ok((report, summary)) => {
             if !args.quiet || report.failure.is_some() {
                 print_summary(&summary, &dir);
@@ -267,7 +267,10 @@ pub fn simulate<S: System>(sys: &S, scene: &Scene, args: &Args) -> ExitCode {
             eprintln!("error: writing the output folder {}: {e}", dir.display());
             ExitCode::FAILURE
         }
-    }
+    };
+    // plots of whatever frames were written, also when the run stopped early
+    crate::plot::run::after_run(&dir, args.quiet);
+    code
 }
 
 /// The end-of-run summary on the terminal.

@@ -5,15 +5,13 @@
 //! incomplete (a run killed while writing) ends the data without an error; the number of
 //! rows read says how far it got.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use super::PlotError;
 
 /// Selected columns of a CSV file.
 #[derive(Clone, Debug, Default)]
 pub struct Columns {
-    /// The file.
-    pub path: PathBuf,
     /// Names of the selected columns, in request order.
     pub names: Vec<String>,
     /// One vector per selected column, all of the same length.
@@ -135,7 +133,6 @@ pub fn read(path: &Path, names: &[String]) -> Result<Columns, PlotError> {
         }
     })?;
     Ok(Columns {
-        path: path.to_path_buf(),
         names: names.to_vec(),
         data,
     })
@@ -148,7 +145,9 @@ pub fn suggest(name: &str, candidates: &[String]) -> String {
         .iter()
         .filter(|c| {
             let c = c.to_lowercase();
-            c.contains(&lower) || lower.contains(&c) || edit_distance(&c, &lower) <= 2
+            c.contains(&lower)
+                || (c.len() >= 3 && lower.contains(&c))
+                || edit_distance(&c, &lower) <= 2
         })
         .collect();
     close.truncate(6);
@@ -156,7 +155,11 @@ pub fn suggest(name: &str, candidates: &[String]) -> String {
         let list: Vec<String> = close.iter().map(|c| format!("`{c}`")).collect();
         return format!("; did you mean {}?", list.join(", "));
     }
-    let mut list: Vec<String> = candidates.iter().take(12).map(|c| format!("`{c}`")).collect();
+    let mut list: Vec<String> = candidates
+        .iter()
+        .take(12)
+        .map(|c| format!("`{c}`"))
+        .collect();
     if candidates.len() > 12 {
         list.push(format!("… ({} in all)", candidates.len()));
     }

@@ -9,6 +9,7 @@ use std::path::Path;
 
 use plotters::coord::Shift;
 use plotters::prelude::*;
+use plotters::style::text_anchor::{HPos, Pos, VPos};
 
 use super::PlotError;
 
@@ -107,8 +108,6 @@ pub enum LegendPos {
     /// Upper right corner of the plotting area.
     #[default]
     UpperRight,
-    /// Upper left.
-    UpperLeft,
     /// Lower right.
     LowerRight,
     /// Lower left.
@@ -334,19 +333,17 @@ impl Figure {
                     .into_font()
                     .style(FontStyle::Bold)
                     .color(&BLACK)
-                    .pos(text_anchor::Pos::new(
-                        text_anchor::HPos::Center,
-                        text_anchor::VPos::Top,
-                    )),
+                    .pos(Pos::new(HPos::Center, VPos::Top)),
             ))
             .map_err(draw_err)?;
             if let Some(sub) = &self.subtitle {
                 top.draw(&Text::new(
                     sub.clone(),
                     (cx, 34),
-                    ("sans-serif", 15).into_font().color(&BLACK.mix(0.75)).pos(
-                        text_anchor::Pos::new(text_anchor::HPos::Center, text_anchor::VPos::Top),
-                    ),
+                    ("sans-serif", 15)
+                        .into_font()
+                        .color(&BLACK.mix(0.75))
+                        .pos(Pos::new(HPos::Center, VPos::Top)),
                 ))
                 .map_err(draw_err)?;
             }
@@ -379,7 +376,6 @@ fn svg_color(c: &RGBColor) -> String {
 fn legend_pos(p: LegendPos) -> SeriesLabelPosition {
     match p {
         LegendPos::UpperRight => SeriesLabelPosition::UpperRight,
-        LegendPos::UpperLeft => SeriesLabelPosition::UpperLeft,
         LegendPos::LowerRight => SeriesLabelPosition::LowerRight,
         LegendPos::LowerLeft => SeriesLabelPosition::LowerLeft,
     }
@@ -417,7 +413,7 @@ where
         .caption(&panel.title, ("sans-serif", 17).into_font())
         .margin(12)
         .margin_right(24)
-        .x_label_area_size(48)
+        .x_label_area_size(if panel.note.is_some() { 66 } else { 48 })
         .y_label_area_size(78)
         .build_cartesian_2d(xr.lo..xr.hi, yr.lo..yr.hi)
         .map_err(draw_err)?;
@@ -461,7 +457,11 @@ where
         if !log || r.hi - r.lo > 6.0 {
             continue;
         }
-        let (olo, ohi) = if vertical { (yr.lo, yr.hi) } else { (xr.lo, xr.hi) };
+        let (olo, ohi) = if vertical {
+            (yr.lo, yr.hi)
+        } else {
+            (xr.lo, xr.hi)
+        };
         let mut d = r.lo.floor();
         while d < r.hi {
             for k in 2..10 {
@@ -485,6 +485,18 @@ where
     let mut labelled = false;
     for (s, seg) in panel.series.iter().zip(&segs) {
         if seg.is_empty() {
+            // nothing to draw, but the legend still names it (its marks may be drawn)
+            if !s.name.is_empty() {
+                let c = s.color;
+                chart
+                    .draw_series(std::iter::once(EmptyElement::at((xr.lo, yr.lo))))
+                    .map_err(draw_err)?
+                    .label(s.name.clone())
+                    .legend(move |(x, y)| {
+                        Rectangle::new([(x, y - 3), (x + 16, y + 3)], c.mix(0.35).filled())
+                    });
+                labelled = true;
+            }
             continue;
         }
         let style = s.color.stroke_width(2);
@@ -527,9 +539,9 @@ where
                 .zip(&s.labels)
                 .filter_map(|(&(x, y), l)| Some(((tr(x, xlog)?, tr(y, ylog)?), l.clone())));
             chart
-                .draw_series(pts.map(|(p, l)| {
-                    EmptyElement::at(p) + Text::new(l, (5, -14), font.clone())
-                }))
+                .draw_series(
+                    pts.map(|(p, l)| EmptyElement::at(p) + Text::new(l, (5, -14), font.clone())),
+                )
                 .map_err(draw_err)?;
         }
     }
@@ -557,16 +569,17 @@ where
     }
 
     if let Some(note) = &panel.note {
-        let (px, py) = chart.plotting_area().dim_in_pixel();
-        let _ = px;
-        chart
-            .plotting_area()
-            .draw(&Text::new(
-                note.clone(),
-                (8, py as i32 - 20),
-                ("sans-serif", 12).into_font().color(&BLACK.mix(0.7)),
-            ))
-            .map_err(draw_err)?;
+        // below the axis label, outside the data
+        let (_, py) = area.dim_in_pixel();
+        area.draw(&Text::new(
+            format!("Note: {note}"),
+            (14, py as i32 - 8),
+            ("sans-serif", 12)
+                .into_font()
+                .color(&BLACK.mix(0.7))
+                .pos(Pos::new(HPos::Left, VPos::Bottom)),
+        ))
+        .map_err(draw_err)?;
     }
 
     if labelled {
@@ -641,7 +654,6 @@ pub fn decimate(points: &[(f64, f64)], max: usize) -> Vec<(f64, f64)> {
     let per = points.len().div_ceil(buckets);
     let mut out = Vec::with_capacity(3 * buckets + 1);
     for chunk in points.chunks(per) {
-        let first = chunk[0];
         let (mut lo, mut hi) = (0usize, 0usize);
         for (i, p) in chunk.iter().enumerate() {
             if p.1 < chunk[lo].1 || chunk[lo].1.is_nan() {
@@ -684,14 +696,18 @@ mod tests {
                 },
                 series: vec![
                     Series::line("a\"b", color(0), pts.clone()),
-                    Series::line("c", color(1), pts.iter().map(|p| (p.0, 2.0 * p.1)).collect()),
+                    Series::line(
+                        "c",
+                        color(1),
+                        pts.iter().map(|p| (p.0, 2.0 * p.1)).collect(),
+                    ),
                 ],
                 top: TopMarks {
                     label: "failed".into(),
                     marks: vec![(0.5, color(0))],
                 },
                 note: Some("a note".into()),
-                legend: LegendPos::UpperLeft,
+                legend: LegendPos::LowerRight,
             }],
             columns: 1,
             panel_size: (600, 300),
@@ -726,7 +742,13 @@ mod tests {
     #[test]
     fn segments_break_at_unshowable_values() {
         let s = segments(
-            &[(1.0, 1.0), (2.0, 0.0), (3.0, 2.0), (4.0, f64::NAN), (5.0, 3.0)],
+            &[
+                (1.0, 1.0),
+                (2.0, 0.0),
+                (3.0, 2.0),
+                (4.0, f64::NAN),
+                (5.0, 3.0),
+            ],
             false,
             true,
         );
@@ -737,7 +759,9 @@ mod tests {
     #[test]
     fn renders_tagged_well_formed_svg() {
         for ylog in [false, true] {
-            let pts: Vec<_> = (1..50).map(|i| (i as f64 * 0.02, (i as f64).powi(2) * 1e-6)).collect();
+            let pts: Vec<_> = (1..50)
+                .map(|i| (i as f64 * 0.02, (i as f64).powi(2) * 1e-6))
+                .collect();
             let svg = fig(ylog, pts).render().expect("renders");
             assert!(svg.starts_with("<svg"), "{}", &svg[..80]);
             assert!(svg.trim_end().ends_with("</svg>"));

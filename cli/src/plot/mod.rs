@@ -18,8 +18,6 @@ pub mod data;
 pub mod figure;
 pub mod run;
 
-pub use figure::{Axis, Figure, Panel, Series, SeriesKind};
-
 /// Why a plot could not be drawn.
 #[derive(Debug)]
 pub enum PlotError {

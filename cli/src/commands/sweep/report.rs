@@ -1,0 +1,633 @@
+//! The outputs of a sweep: `sweep.csv`, `sweep.json`, `sweep.svg`, and the terminal
+//! report (markdown table, fitted orders, reference, "reading this").
+
+use std::fmt::Write as _;
+use std::path::Path;
+
+use serde_json::json;
+
+use super::fit::Fit;
+use super::{Measure, ReferenceInfo, SweepResult, SweepRun};
+use crate::plot::figure::{
+    color, short_sci, Axis, Figure, LegendPos, Panel, Series, SeriesKind, TopMarks,
+};
+
+/// Columns of `sweep.csv`, in order.
+pub const CSV_COLUMNS: [&str; 15] = [
+    "method",
+    "step_s",
+    "status",
+    "cpu_time_s",
+    "repetitions",
+    "pos_err_final_m",
+    "pos_err_max_m",
+    "rot_err_final_rad",
+    "rot_err_max_rad",
+    "max_violation",
+    "energy_drift",
+    "iterations_mean",
+    "steps",
+    "t_reached_s",
+    "options",
+];
+
+/// The errors targets of the "cheapest method" lines.
+const TARGETS: [f64; 2] = [1e-3, 1e-6];
+
+fn csv_field(out: &mut String, s: &str) {
+    if s.contains([',', '"', '\n', '\r']) {
+        out.push('"');
+        out.push_str(&s.replace('"', "\"\""));
+        out.push('"');
+    } else {
+        out.push_str(s);
+    }
+}
+
+fn num(x: Option<f64>) -> String {
+    match x {
+        Some(v) => format!("{v:e}"),
+        None => String::new(),
+    }
+}
+
+/// `sweep.csv`: one row per run; empty fields where a value does not exist (no reference
+/// for that quantity, a run that did not finish, a method that does not iterate).
+pub fn csv(r: &SweepResult) -> String {
+    let mut s = CSV_COLUMNS.join(",");
+    s.push('\n');
+    for run in &r.runs {
+        let m = &r.methods[run.method];
+        let e = run.errors.unwrap_or_default();
+        let o = &run.outcome;
+        let fields = [
+            m.name.to_string(),
+            format!("{:e}", run.step),
+            o.status.text(),
+            format!("{:e}", o.cpu_time),
+            run.repetitions.to_string(),
+            num(e.pos_final),
+            num(e.pos_max),
+            num(e.rot_final),
+            num(e.rot_max),
+            format!("{:e}", o.max_violation),
+            format!("{:e}", o.energy_drift),
+            num(o.iterations),
+            o.steps.to_string(),
+            format!("{:e}", o.t_end),
+            m.options.clone(),
+        ];
+        for (i, f) in fields.iter().enumerate() {
+            if i > 0 {
+                s.push(',');
+            }
+            csv_field(&mut s, f);
+        }
+        s.push('\n');
+    }
+    s
+}
+
+fn fit_json(f: &Fit, theory: Option<f64>) -> serde_json::Value {
+    json!({
+        "order": f.order,
+        "theory": theory,
+        "flagged": flagged(f, theory),
+        "steps_used": f.used,
+        "excluded": f.excluded.iter().map(|(h, why)| json!({"step_s": h, "why": why.text()})).collect::<Vec<_>>(),
+        "local_orders": f.local.iter().map(|(a, b, p)| json!({"from_s": a, "to_s": b, "order": p})).collect::<Vec<_>>(),
+        "stalls_below_s": f.stalls_below,
+    })
+}
+
+/// Whether a fitted order differs from the theory by more than 0.3.
+pub fn flagged(f: &Fit, theory: Option<f64>) -> bool {
+    matches!((f.order, theory), (Some(p), Some(t)) if (p - t).abs() > 0.3)
+}
+
+/// `sweep.json`: the settings, the reference, the fits and the runs.
+pub fn json(r: &SweepResult) -> serde_json::Value {
+    let reference = match &r.reference {
+        ReferenceInfo::Analytic => json!({"kind": "analytic"}),
+        ReferenceInfo::Table(p) => json!({"kind": "table", "path": p.display().to_string()}),
+        ReferenceInfo::Numerical {
+            method,
+            step,
+            estimate,
+            chosen,
+        } => json!({
+            "kind": "numerical",
+            "method": method,
+            "step_s": step,
+            "chosen": chosen,
+            "estimated_error": {
+                "pos_err_final_m": estimate.pos_final,
+                "pos_err_max_m": estimate.pos_max,
+                "rot_err_final_rad": estimate.rot_final,
+                "rot_err_max_rad": estimate.rot_max,
+            }
+        }),
+        ReferenceInfo::Unavailable(why) => json!({"kind": "none", "why": why}),
+    };
+    let methods: Vec<_> = r
+        .methods
+        .iter()
+        .zip(&r.fits)
+        .map(|(m, (p, s))| {
+            json!({
+                "name": m.name,
+                "options": m.options,
+                "theory_order": m.theory,
+                "fit": fit_json(p, m.theory),
+                "fit_secondary": s.as_ref().map(|s| fit_json(s, m.theory)),
+            })
+        })
+        .collect();
+    let runs: Vec<_> = r
+        .runs
+        .iter()
+        .map(|run| {
+            let e = run.errors.unwrap_or_default();
+            let o = &run.outcome;
+            json!({
+                "method": r.methods[run.method].name,
+                "step_s": run.step,
+                "status": o.status.word(),
+                "status_text": o.status.text(),
+                "cpu_time_s": o.cpu_time,
+                "repetitions": run.repetitions,
+                "pos_err_final_m": e.pos_final,
+                "pos_err_max_m": e.pos_max,
+                "rot_err_final_rad": e.rot_final,
+                "rot_err_max_rad": e.rot_max,
+                "max_violation": o.max_violation,
+                "energy_drift": o.energy_drift,
+                "iterations_mean": o.iterations,
+                "steps": o.steps,
+                "t_reached_s": o.t_end,
+                "frames_compared": o.track.frames(),
+                "output_every": run.every,
+            })
+        })
+        .collect();
+    json!({
+        "model": r.model,
+        "duration_s": r.duration,
+        "runner": r.runner,
+        "stability": r.estimate.as_ref().map(|e| json!({
+            "omega_max_rad_s": e.omega_max, "source": e.source,
+            "h_limit_s": e.h_limit(), "h_20_per_period_s": e.h_max()})),
+        "steps_note": r.steps_note,
+        "measure": r.measure.short(),
+        "secondary_measure": r.secondary.map(Measure::short),
+        "length_scale_m": r.length_scale,
+        "reference": reference,
+        "methods": methods,
+        "skipped_methods": r.skipped.iter().map(|(n, w)| json!({"name": n, "why": w})).collect::<Vec<_>>(),
+        "runs": runs,
+    })
+}
+
+fn sci(x: Option<f64>) -> String {
+    match x {
+        Some(v) if v.is_finite() => format!("{v:.2e}"),
+        Some(v) => format!("{v}"),
+        None => "—".into(),
+    }
+}
+
+/// The markdown table of the runs.
+pub fn markdown(r: &SweepResult) -> String {
+    let mut s = String::new();
+    s.push_str("| method | h (s) | status | CPU (s) | reps | pos err final (m) | pos err max (m) | rot err final (rad) | rot err max (rad) | max violation | energy drift | iterations |\n");
+    s.push_str("|---|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
+    for run in &r.runs {
+        let e = run.errors.unwrap_or_default();
+        let o = &run.outcome;
+        let status = match &o.status {
+            super::Status::Ok => "ok".to_string(),
+            st => format!("{} (t = {:.3} s)", st.word(), st.time().unwrap_or(o.t_end)),
+        };
+        let _ = writeln!(
+            s,
+            "| {} | {} | {} | {:.2e} | {} | {} | {} | {} | {} | {:.2e} | {:.2e} | {} |",
+            r.methods[run.method].name,
+            short_sci(run.step),
+            status,
+            o.cpu_time,
+            run.repetitions,
+            sci(e.pos_final),
+            sci(e.pos_max),
+            sci(e.rot_final),
+            sci(e.rot_max),
+            o.max_violation,
+            o.energy_drift,
+            o.iterations.map_or("—".into(), |i| format!("{i:.2}")),
+        );
+    }
+    s
+}
+
+fn order_text(f: &Fit) -> String {
+    match f.order {
+        Some(p) => format!("{p:.2}"),
+        None => "n/a".into(),
+    }
+}
+
+fn fit_line(name: &str, f: &Fit, theory: Option<f64>) -> String {
+    let mut s = format!("  {name:<24} {:>5}", order_text(f));
+    match (f.used.first(), f.used.last()) {
+        (Some(a), Some(b)) if f.used.len() >= 2 => {
+            let _ = write!(
+                s,
+                "  ({} runs, h = {} … {} s)",
+                f.used.len(),
+                short_sci(*b),
+                short_sci(*a)
+            );
+        }
+        _ => s.push_str("  (fewer than two runs in the converging range)"),
+    }
+    if let Some(t) = theory {
+        let _ = write!(s, "  theory {t}");
+    }
+    if flagged(f, theory) {
+        s.push_str("  ⚠ differs from theory by more than 0.3");
+    }
+    if let Some(h) = f.stalls_below {
+        let _ = write!(s, "; stops converging below h = {} s", short_sci(h));
+    }
+    let out: Vec<String> = f
+        .excluded
+        .iter()
+        .map(|(h, w)| format!("{}: {}", short_sci(*h), w.text()))
+        .collect();
+    if !out.is_empty() {
+        let _ = write!(s, "\n  {:<24} left out: {}", "", out.join("; "));
+    }
+    s
+}
+
+fn reference_text(r: &SweepResult) -> String {
+    match &r.reference {
+        ReferenceInfo::Analytic => "the scene's analytic reference (exact at every frame time)".into(),
+        ReferenceInfo::Table(p) => format!("the scene's reference table {} (interpolated in time)", p.display()),
+        ReferenceInfo::Numerical {
+            method,
+            step,
+            estimate,
+            chosen,
+        } => format!(
+            "a numerical run of {method} at h = {} s ({chosen}); its own error, estimated by Richardson extrapolation from a run at 2h: position {} m final / {} m max, orientation {} rad final / {} rad max",
+            short_sci(*step),
+            sci(estimate.pos_final),
+            sci(estimate.pos_max),
+            sci(estimate.rot_final),
+            sci(estimate.rot_max),
+        ),
+        ReferenceInfo::Unavailable(why) => format!("none ({why}); no errors are reported"),
+    }
+}
+
+/// The cheapest finished run whose error (the plotted measure) is at most `target`.
+pub fn cheapest(r: &SweepResult, target: f64) -> Option<&SweepRun> {
+    r.runs
+        .iter()
+        .filter(|run| {
+            run.outcome.status.is_ok()
+                && run
+                    .errors
+                    .as_ref()
+                    .and_then(|e| r.measure.of(e))
+                    .is_some_and(|e| e <= target)
+        })
+        .min_by(|a, b| a.outcome.cpu_time.total_cmp(&b.outcome.cpu_time))
+}
+
+/// The "reading this" text.
+pub fn reading(r: &SweepResult) -> String {
+    let mut s = String::new();
+    let unit = r.measure.unit();
+    s.push_str("Reading this:\n");
+    let _ = writeln!(
+        s,
+        "- sweep.svg, left: work–precision. Each line is a method, each point a step size (labelled). Lower is more accurate, further left is cheaper: at a given error, the leftmost line is the cheapest method there."
+    );
+    let _ = writeln!(
+        s,
+        "- sweep.svg, right: error against step. The slope is the convergence order (fitted, in the legend; the dashed line has slope 2). Where a line flattens, the method has stopped converging: it has reached the reference's own error, round-off, or a floor of its own (a regularization, a tolerance). Crosses along the top are runs that diverged or stopped."
+    );
+    for target in TARGETS {
+        match cheapest(r, target) {
+            Some(run) => {
+                let _ = writeln!(
+                    s,
+                    "- Cheapest run with error ≤ {target:e} {unit}: {} at h = {} s, {:.2e} s CPU.",
+                    r.methods[run.method].name,
+                    short_sci(run.step),
+                    run.outcome.cpu_time
+                );
+            }
+            None => {
+                let _ = writeln!(
+                    s,
+                    "- No run reached error ≤ {target:e} {unit}; sweep finer steps (--levels, --steps) to see what it costs."
+                );
+            }
+        }
+    }
+    let failed: Vec<String> = r
+        .runs
+        .iter()
+        .filter(|run| !run.outcome.status.is_ok())
+        .map(|run| {
+            format!(
+                "{} at h = {} s ({})",
+                r.methods[run.method].name,
+                short_sci(run.step),
+                run.outcome.status.word()
+            )
+        })
+        .collect();
+    if !failed.is_empty() {
+        let _ = writeln!(
+            s,
+            "- Runs that did not finish: {} (sweep.csv has where and why).",
+            failed.join(", ")
+        );
+    }
+    for (m, (f, _)) in r.methods.iter().zip(&r.fits) {
+        if flagged(f, m.theory) {
+            let _ = writeln!(
+                s,
+                "- {}: the measured order {} is not the theoretical {} — look at the local orders in sweep.json and at the right panel: a floor inside the fitted range, a reference not accurate enough, or a real loss of order.",
+                m.name,
+                order_text(f),
+                m.theory.unwrap_or(f64::NAN)
+            );
+        }
+    }
+    s
+}
+
+/// The figure: work–precision and error vs step.
+pub fn figure(r: &SweepResult) -> Figure {
+    let ylabel = r.measure.label();
+    let mut wp = Vec::new();
+    let mut es = Vec::new();
+    let mut wp_marks = Vec::new();
+    let mut es_marks = Vec::new();
+    for (mi, m) in r.methods.iter().enumerate() {
+        let c = color(mi);
+        let mut mine: Vec<&SweepRun> = r.runs.iter().filter(|x| x.method == mi).collect();
+        mine.sort_by(|a, b| b.step.total_cmp(&a.step));
+        let ok: Vec<(&SweepRun, f64)> = mine
+            .iter()
+            .filter(|x| x.outcome.status.is_ok())
+            .filter_map(|x| Some((*x, x.errors.as_ref().and_then(|e| r.measure.of(e))?)))
+            .collect();
+        for x in mine.iter().filter(|x| !x.outcome.status.is_ok()) {
+            wp_marks.push((x.outcome.cpu_time, c));
+            es_marks.push((x.step, c));
+        }
+        let labels: Vec<String> = ok.iter().map(|(x, _)| short_sci(x.step)).collect();
+        let none = if ok.is_empty() {
+            " (no run with an error)"
+        } else {
+            ""
+        };
+        wp.push(Series {
+            name: format!("{}{none}", m.name),
+            tag: m.name.to_string(),
+            color: c,
+            kind: SeriesKind::LinePoints,
+            points: ok.iter().map(|(x, e)| (x.outcome.cpu_time, *e)).collect(),
+            labels,
+        });
+        let f = &r.fits[mi].0;
+        let mut name = if ok.is_empty() {
+            format!("{}{none}", m.name)
+        } else {
+            format!("{} — order {}", m.name, order_text(f))
+        };
+        if flagged(f, m.theory) {
+            name.push_str(" ⚠");
+        }
+        es.push(Series {
+            name,
+            tag: m.name.to_string(),
+            color: c,
+            kind: SeriesKind::LinePoints,
+            points: ok.iter().map(|(x, e)| (x.step, *e)).collect(),
+            labels: Vec::new(),
+        });
+    }
+    // slope-2 guide below the data, across the swept steps
+    let pts: Vec<(f64, f64)> = es
+        .iter()
+        .flat_map(|s| s.points.iter().copied())
+        .filter(|p| p.1 > 0.0 && p.1.is_finite())
+        .collect();
+    if let (Some(hmin), Some(hmax)) = (
+        pts.iter().map(|p| p.0).reduce(f64::min),
+        pts.iter().map(|p| p.0).reduce(f64::max),
+    ) {
+        if hmax > hmin {
+            let at_min = pts
+                .iter()
+                .filter(|p| p.0 <= hmin * (1.0 + 1e-9))
+                .map(|p| p.1)
+                .fold(f64::INFINITY, f64::min);
+            let e0 = at_min / 3.0;
+            es.push(Series {
+                name: "slope 2 (guide)".into(),
+                tag: String::new(),
+                color: plotters::style::RGBColor(120, 120, 120),
+                kind: SeriesKind::Dashed,
+                points: vec![(hmin, e0), (hmax, e0 * (hmax / hmin).powi(2))],
+                labels: Vec::new(),
+            });
+        }
+    }
+    // the numerical reference's own error
+    if let ReferenceInfo::Numerical { estimate, .. } = &r.reference {
+        if let Some(e) = r.measure.of(estimate).filter(|e| *e > 0.0) {
+            for (panel, xs) in [
+                (
+                    &mut wp,
+                    r.runs
+                        .iter()
+                        .map(|x| x.outcome.cpu_time)
+                        .collect::<Vec<_>>(),
+                ),
+                (&mut es, r.runs.iter().map(|x| x.step).collect::<Vec<_>>()),
+            ] {
+                let lo = xs
+                    .iter()
+                    .copied()
+                    .filter(|x| *x > 0.0)
+                    .fold(f64::INFINITY, f64::min);
+                let hi = xs.iter().copied().fold(0.0, f64::max);
+                if lo.is_finite() && hi > 0.0 {
+                    panel.push(Series {
+                        name: "reference's estimated error".into(),
+                        tag: String::new(),
+                        color: plotters::style::RGBColor(90, 90, 90),
+                        kind: SeriesKind::Dashed,
+                        points: vec![(lo, e), (hi, e)],
+                        labels: Vec::new(),
+                    });
+                }
+            }
+        }
+    }
+    let marks_label = "diverged or stopped".to_string();
+    Figure {
+        title: format!("{}: what accuracy costs", r.model),
+        subtitle: Some(format!(
+            "t = 0 … {} s; reference: {}; {}",
+            crate::plot::figure::number_label(r.duration),
+            match &r.reference {
+                ReferenceInfo::Analytic => "analytic".to_string(),
+                ReferenceInfo::Table(_) => "table".to_string(),
+                ReferenceInfo::Numerical { method, step, .. } =>
+                    format!("{method} at h = {} s", short_sci(*step)),
+                ReferenceInfo::Unavailable(_) => "none".to_string(),
+            },
+            if r.runner.starts_with("interpreter") {
+                "interpreter"
+            } else {
+                "compiled"
+            }
+        )),
+        panels: vec![
+            Panel {
+                title: "Work–precision (points labelled by step h in s)".into(),
+                x: Axis::log("CPU time per run (s)"),
+                y: Axis::log(ylabel),
+                series: wp,
+                top: TopMarks {
+                    label: marks_label.clone(),
+                    marks: wp_marks,
+                },
+                note: None,
+                legend: LegendPos::LowerLeft,
+            },
+            Panel {
+                title: "Error vs step, with the fitted order".into(),
+                x: Axis::log("step h (s)"),
+                y: Axis::log(ylabel),
+                series: es,
+                top: TopMarks {
+                    label: marks_label,
+                    marks: es_marks,
+                },
+                note: None,
+                legend: LegendPos::LowerRight,
+            },
+        ],
+        columns: 2,
+        panel_size: (720, 560),
+    }
+}
+
+/// Write the files and print the report.
+///
+/// # Errors
+/// If the folder or a file cannot be written.
+pub fn write_all(r: &SweepResult, dir: &Path) -> Result<(), String> {
+    std::fs::create_dir_all(dir).map_err(|e| format!("creating {}: {e}", dir.display()))?;
+    let write = |name: &str, text: &str| {
+        let p = dir.join(name);
+        std::fs::write(&p, text).map_err(|e| format!("writing {}: {e}", p.display()))
+    };
+    write("sweep.csv", &csv(r))?;
+    let j = serde_json::to_string_pretty(&json(r)).map_err(|e| e.to_string())?;
+    write("sweep.json", &(j + "\n"))?;
+    figure(r)
+        .save(&dir.join("sweep.svg"))
+        .map_err(|e| e.to_string())?;
+
+    println!(
+        "# {} — sweep over t = 0 … {} s ({})\n",
+        r.model, r.duration, r.runner
+    );
+    println!("Steps: {}.", r.steps_note);
+    if let Some(e) = &r.estimate {
+        println!(
+            "Stability: ω_max ≈ {:.4} rad/s ({}): explicit limit h ≤ 2/ω_max = {} s.",
+            e.omega_max,
+            e.source,
+            short_sci(e.h_limit())
+        );
+    }
+    for m in &r.methods {
+        if !m.options.is_empty() {
+            println!("Method {}: {}.", m.name, m.options);
+        }
+    }
+    for (n, w) in &r.skipped {
+        println!("Not swept: {n} ({w}).");
+    }
+    println!("Reference: {}.", reference_text(r));
+    println!(
+        "Errors: RMS over bodies of |r − r_ref| (m) and of the rotation angle of q_ref⁻¹q (rad), at the final time and the maximum over the frames. CPU time: best of the repetitions.\n"
+    );
+    print!("{}", markdown(r));
+    println!(
+        "\nConvergence order (least-squares slope of log error on log h, {}):",
+        r.measure.short()
+    );
+    for (m, (f, _)) in r.methods.iter().zip(&r.fits) {
+        println!("{}", fit_line(m.name, f, m.theory));
+    }
+    if let Some(sec) = r.secondary {
+        println!("Convergence order of {}:", sec.short());
+        for (m, (_, f)) in r.methods.iter().zip(&r.fits) {
+            if let Some(f) = f {
+                println!("{}", fit_line(m.name, f, m.theory));
+            }
+        }
+    }
+    println!();
+    print!("{}", reading(r));
+    println!(
+        "\nWrote {}, {} and {}.",
+        dir.join("sweep.csv").display(),
+        dir.join("sweep.json").display(),
+        dir.join("sweep.svg").display()
+    );
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::fit::Excluded;
+    use super::*;
+
+    #[test]
+    fn csv_quoting() {
+        let mut s = String::new();
+        csv_field(&mut s, "a, \"b\"");
+        assert_eq!(s, "\"a, \"\"b\"\"\"");
+        let mut s = String::new();
+        csv_field(&mut s, "plain");
+        assert_eq!(s, "plain");
+    }
+
+    #[test]
+    fn flags() {
+        let f = |p: Option<f64>| Fit {
+            order: p,
+            used: vec![],
+            excluded: vec![(0.1, Excluded::Floor)],
+            local: vec![],
+            stalls_below: None,
+        };
+        assert!(!flagged(&f(Some(2.25)), Some(2.0)));
+        assert!(flagged(&f(Some(1.6)), Some(2.0)));
+        assert!(!flagged(&f(None), Some(2.0)));
+        assert!(!flagged(&f(Some(1.0)), None));
+    }
+}
