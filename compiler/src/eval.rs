@@ -1064,11 +1064,12 @@ impl Lowerer<'_> {
                 let a = self.vector(a0, sc)?;
                 let mut acc: Option<Q> = None;
                 for p in &a {
-                    if let Some(s) = &acc {
-                        self.same_dims(s, p, a0.span, a0.span, sc, "combine")?;
-                    }
                     let m =
                         mul_q(p.clone(), p.clone()).map_err(|_| self.exponent_error(span, sc))?;
+                    // the components must agree; compare their squares with the running sum
+                    if let Some(s) = &acc {
+                        self.same_dims(s, &m, a0.span, a0.span, sc, "combine")?;
+                    }
                     acc = Some(match acc {
                         None => m,
                         Some(s) => {

@@ -327,3 +327,20 @@ fn beams_subdivide_and_attach() {
     assert_eq!(b.attachments[1].node, 4);
     assert_eq!(b.attachments[1].to.body, BodyRef::Body(0));
 }
+
+#[test]
+fn vector_functions_keep_units() {
+    // norm of a length vector is a length (a regression: the running sum of squares was
+    // compared with the components, "cannot combine m^2 and m")
+    let s = scene(&model(
+        "const P = (3, 0, 0) m\n const Q = (0, 4, 0) m\n body b {\n mass 1 kg\n inertia rod(length: norm(P - Q), radius: 1 cm)\n position normalize(P - Q) * norm(P - Q)\n }",
+    ));
+    let b = &s.bodies[0];
+    // rod of length 5 m: transverse inertia m(3r² + L²)/12
+    assert!(close(b.inertia[0][0], (3.0 * 1e-4 + 25.0) / 12.0));
+    assert!(close(b.position[0], 3.0) && close(b.position[1], -4.0));
+    assert_eq!(
+        errors(&model("const d = norm((1 m, 2 s, 0))"))[0].0,
+        "mbdc::unit-mismatch"
+    );
+}
