@@ -2,9 +2,10 @@
 //!
 //! **What it is.** Lowering of the syntax tree (`mbdc-dsl`) to a [`mbdc_runtime::scene::Scene`]:
 //! imports, name resolution, parameters, components and loops expanded, units checked and
-//! converted to SI, physics validated; diagnostics with source spans. (Code generation from a
-//! `Scene` to specialized Rust and the `build.rs` API will live in a `codegen` module next to
-//! these; nothing here depends on it.)
+//! converted to SI, physics validated; diagnostics with source spans. Then code generation
+//! ([`codegen`]): from a `Scene` to Rust specialized to it, implementing the runtime's
+//! `System`; and the `build.rs` API ([`build`], [`Builder`]) that writes that Rust into
+//! `OUT_DIR`. The proc-macros of `mbdc-macros` and `mbdc run` use the same generator.
 //!
 //! **What it must never know.** How to integrate: no time stepping, no solvers. It produces
 //! data (`Scene`) and source text; the runtime does the numerics. It has no command-line
@@ -19,6 +20,10 @@
 //! - [`summary`]: a [`CheckSummary`] of a scene (bodies, joints and rows, degrees of
 //!   freedom, Jacobian rank, effects, forces, beams/meshes, method and settings), with a
 //!   readable `Display`.
+//! - [`codegen::generate`]: a [`Scene`] → formatted Rust source (`pub mod <scene> { Model }`),
+//!   with the structure key that identifies interchangeable programs ([`codegen::plan`]).
+//! - [`build`] / [`Builder`] (module [`embed`]): generate a model file's Rust into `OUT_DIR`
+//!   from a build script, with `cargo:rerun-if-changed` for every file read.
 //! - [`Diagnostic`]: severity, stable code ([`diag::codes`]), message, labelled spans, help.
 //!   [`Diagnostic::render_plain`] renders one as text; [`Diagnostic::with_sources`] gives a
 //!   [`miette::Diagnostic`] with its source attached.
@@ -41,11 +46,14 @@
 //! parsing, imports), `units` and `value` (dimensions, quantities), `eval` (expressions),
 //! `fn1` (time-function trees), `env` (scopes), `lower` (expansion and lowering of every
 //! construct), `geom` (rotations, frames, inertia formulas), `kinematics` (constraint
-//! residuals at t = 0), `validate` (post-lowering checks), `summary`.
+//! residuals at t = 0), `validate` (post-lowering checks), `summary`, `codegen` (Rust from a
+//! `Scene`), `embed` (the `build.rs` API).
 
 #![warn(missing_docs)]
 
+pub mod codegen;
 pub mod diag;
+pub mod embed;
 pub mod env;
 pub mod eval;
 pub mod fn1;
@@ -64,6 +72,7 @@ use std::path::{Path, PathBuf};
 use std::str::FromStr;
 
 pub use diag::{Diagnostic, Label, Severity};
+pub use embed::{build, Builder};
 pub use lower::msh;
 pub use mbdc_runtime::scene::Scene;
 pub use source::{FileId, Sources};

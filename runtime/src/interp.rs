@@ -71,89 +71,145 @@ fn invalid(item: &'static str, name: &str, reason: impl Into<String>) -> InterpE
     }
 }
 
-/// A joint's kernel selector with its time functions.
-#[derive(Clone, Debug)]
-enum JointImpl {
+/// A joint's kernel selector with its time functions (one per [`crate::joints`] kernel).
+#[derive(Clone, Debug, PartialEq)]
+pub enum JointImpl {
+    /// [`joints::spherical`].
     Spherical,
+    /// [`joints::revolute`].
     Revolute,
+    /// [`joints::prismatic`].
     Prismatic,
+    /// [`joints::cylindrical`].
     Cylindrical,
+    /// [`joints::universal`].
     Universal,
+    /// [`joints::fixed`].
     Fixed,
+    /// [`joints::planar`].
     Planar,
+    /// [`joints::distance_joint`] (length in [`JointGeom::param`]).
     Distance,
+    /// [`joints::drive_angle`] with the prescribed angle `f(t)`.
     DriveAngle(Fn1),
+    /// [`joints::drive_displacement`] with the prescribed displacement `f(t)`.
     DriveDisplacement(Fn1),
+    /// [`joints::rolling`] (radius in [`JointGeom::param`]).
     Rolling,
+    /// [`joints::point_velocity`] with the prescribed velocity `v(t)`.
     PointVelocity(Box<[Fn1; 3]>),
+    /// [`joints::curve`] with the curve `y = f(x)`.
     Curve(Fn1),
-    /// A lock row `sin(θ − angle)`.
+    /// A lock row `sin(θ − angle)` ([`joints::drive_angle`] with a constant angle).
     Lock(f64),
 }
 
-#[derive(Clone, Debug)]
-struct JointEntry {
-    kind: JointImpl,
-    geom: JointGeom,
-    a: Option<usize>,
-    b: Option<usize>,
-    first: usize,
-    rows: usize,
+/// One row group of the interpreter's plan: a scene joint or a lock row.
+#[derive(Clone, Debug, PartialEq)]
+pub struct JointEntry {
+    /// Which kernel, with its time functions.
+    pub kind: JointImpl,
+    /// Geometry passed to the kernel.
+    pub geom: JointGeom,
+    /// Body of side a (`None`: ground).
+    pub a: Option<usize>,
+    /// Body of side b (`None`: ground).
+    pub b: Option<usize>,
+    /// First global row.
+    pub first: usize,
+    /// Number of rows.
+    pub rows: usize,
 }
 
-/// An active applied-force term.
-#[derive(Clone, Debug)]
-enum Term {
+/// An active applied-force term, evaluated in [`System::applied`] in plan order.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Term {
+    /// A force at a body point ([`forces::point_force_world`] / [`forces::point_force_body`]).
     Point {
+        /// The body.
         body: usize,
+        /// Point of application, body components relative to the mass centre.
         rho: [f64; 3],
+        /// Force components as functions of time.
         value: Box<[Fn1; 3]>,
+        /// Frame of the components.
         frame: ForceFrame,
     },
+    /// A pure torque ([`forces::torque_world`] / [`forces::torque_body`]).
     Torque {
+        /// The body.
         body: usize,
+        /// Torque components as functions of time.
         value: Box<[Fn1; 3]>,
+        /// Frame of the components.
         frame: ForceFrame,
     },
+    /// A translational spring–damper ([`forces::spring`]).
     Spring {
+        /// Side a (`None`: ground).
         a: Option<usize>,
+        /// Side b.
         b: Option<usize>,
+        /// Geometry and constants.
         g: SpringGeom,
     },
+    /// A rotational spring–damper ([`forces::rotational_spring`]).
     RotSpring {
+        /// Side a.
         a: Option<usize>,
+        /// Side b.
         b: Option<usize>,
+        /// Geometry and constants.
         g: RotSpringGeom,
     },
+    /// Sphere–plane contact ([`contact::sphere_plane`]).
     SpherePlane {
+        /// The sphere's side.
         a: Option<usize>,
+        /// The plane's side.
         b: Option<usize>,
+        /// Geometry and law.
         g: SpherePlane,
     },
+    /// Sphere–sphere contact ([`contact::sphere_sphere`]).
     SphereSphere {
+        /// Side a.
         a: Option<usize>,
+        /// Side b.
         b: Option<usize>,
+        /// Geometry and law.
         g: SphereSphere,
     },
+    /// Box–plane contact ([`contact::box_plane`]).
     BoxPlane {
+        /// The box's side.
         a: Option<usize>,
+        /// The plane's side.
         b: Option<usize>,
+        /// Geometry and law.
         g: BoxPlane,
     },
 }
 
-#[derive(Clone, Debug)]
-struct Lock {
+/// A lock of a rotational spring: its row engages once the joint angle reaches `angle`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Lock {
     /// Layout joint index of the lock row.
-    joint: usize,
+    pub joint: usize,
     /// Global row.
-    row: usize,
-    geom: JointGeom,
-    a: Option<usize>,
-    b: Option<usize>,
-    sign: f64,
-    angle: f64,
-    theta0: f64,
+    pub row: usize,
+    /// The spring's joint geometry.
+    pub geom: JointGeom,
+    /// Side a.
+    pub a: Option<usize>,
+    /// Side b.
+    pub b: Option<usize>,
+    /// Sign of the joint angle ([`forces::joint_angle_sign`]).
+    pub sign: f64,
+    /// Lock angle, rad.
+    pub angle: f64,
+    /// Joint angle at the start, rad.
+    pub theta0: f64,
 }
 
 /// A [`System`] interpreted from a [`Scene`] (see the module doc).
@@ -770,7 +826,6 @@ impl Interp {
         })
     }
 
-    /// The scene's name.
     /// Replace the initial state (e.g. by an assembled one, [`crate::assemble`]).
     ///
     /// # Panics
@@ -780,6 +835,7 @@ impl Interp {
         self.twist0.copy_from_slice(twist);
     }
 
+    /// The scene's name.
     pub fn name(&self) -> &str {
         &self.name
     }
@@ -793,6 +849,29 @@ impl Interp {
     /// The gravity vector, if the scene has non-zero gravity.
     pub fn gravity(&self) -> Option<Vector3<f64>> {
         self.gravity
+    }
+
+    /// The row groups in row order (scene joints, then lock rows): what
+    /// [`System::constraints`] evaluates. Generated code is specialized on this plan
+    /// ([`crate::compiled`]).
+    pub fn joint_entries(&self) -> &[JointEntry] {
+        &self.joints
+    }
+
+    /// The active applied-force terms, in the order [`System::applied`] adds them (after
+    /// gravity).
+    pub fn terms(&self) -> &[Term] {
+        &self.terms
+    }
+
+    /// The locks, in lock-row order.
+    pub fn locks(&self) -> &[Lock] {
+        &self.locks
+    }
+
+    /// The initial poses and twists (as given, or as set by [`Interp::set_initial_state`]).
+    pub fn initial(&self) -> (&[Pose], &[Twist]) {
+        (&self.pose0, &self.twist0)
     }
 
     /// The continuous joint angle θ of each lock (in lock order, matching the lock joints

@@ -12,9 +12,14 @@
 //!
 //! **API boundary.** `scene` (data in), `system` (the contract), `interp::Interp` (a
 //! `System` from a `Scene`), the integrators and `run` (advance a `System` and stream
-//! frames to writers), `output` (CSV and `summary.json`).
+//! frames to writers), `output` (CSV and `summary.json`), `compiled` (the split of a scene
+//! into the structure generated code is specialized on and the numbers it loads, and the
+//! [`compiled::CompiledModel`] trait generated models implement) and `app` (the program
+//! entry of a compiled scene).
 
+pub mod app;
 pub mod assemble;
+pub mod compiled;
 pub mod contact;
 pub mod energy;
 pub mod fn1;
@@ -29,3 +34,7 @@ pub mod run;
 pub mod scene;
 pub mod system;
 pub mod topology;
+
+/// The linear-algebra crate of the runtime's types ([`system::Pose`] etc.), re-exported so
+/// that generated code depends on this crate only.
+pub use nalgebra;

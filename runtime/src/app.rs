@@ -1,0 +1,318 @@
+//! The program entry of a compiled scene: what the `main.rs` of a crate written by
+//! `mbdc run` calls, so that the generated program is a few lines.
+//!
+//! ```text
+//! scene-program [--scene FILE.json] [--method NAME] [--step S] [--duration S] [--every N]
+//!               [--out DIR] [--on-failure stop|halve-step] [--assemble] [--progress] [--quiet]
+//! ```
+//!
+//! - `--scene`: the scene (JSON of a [`Scene`]) with the numbers to run; it must have the
+//!   structure the program was generated for. Default: the scene embedded at generation.
+//! - `--method`, `--step`, `--duration`, `--every`: as `mbdc run` ([`run_config`]).
+//! - `--out`: the output folder (default `out/<model name>`).
+//! - `--progress`: machine-readable progress on stderr for the `mbdc` command-line
+//!   program, one line each: `@mbdc progress <t>` and `@mbdc notice <text>` (newlines
+//!   escaped as `\n`); without it, notices are plain lines and a summary is printed at the end.
+//!
+//! Exit codes: 0 the run finished, 1 the run stopped early (the failure is in
+//! `summary.json`), 2 the run could not start (bad arguments, another structure, output
+//! folder not writable).
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::time::{Duration, Instant};
+
+use crate::compiled::{self, CompiledModel};
+use crate::integrators::State;
+use crate::output::RunMeta;
+use crate::run::{self, Frame, Observer, OnFailure, RunConfig, Watchdog};
+use crate::scene::{MethodSpec, Scene};
+use crate::system::System;
+
+/// Prefix of the machine-readable lines written with `--progress`.
+pub const PROTOCOL: &str = "@mbdc ";
+
+/// The run settings a user may give on the command line (`None`: the scene's).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Settings {
+    /// Method name ([`MethodSpec::NAMES`]); the scene's options are kept when it is the
+    /// scene's method, the defaults are used otherwise.
+    pub method: Option<String>,
+    /// Step, s.
+    pub step: Option<f64>,
+    /// Duration, s.
+    pub duration: Option<f64>,
+    /// Output every N steps.
+    pub every: Option<u32>,
+    /// Retry with half the step on failure (up to 10 times).
+    pub halve_step: bool,
+}
+
+/// Whether a scene has energy sources (applied forces, drivers, prescribed velocities,
+/// contact, time dependence): then the watchdog does not check energy growth.
+pub fn energy_sources(scene: &Scene) -> bool {
+    let e = scene.effects();
+    e.applied_forces || e.drivers || e.nonholonomic || e.contact || e.time_dependence
+}
+
+/// The run configuration of `scene` on `sys` with the user's settings: the same for the
+/// interpreter and compiled code.
+pub fn run_config<S: System>(sys: &S, scene: &Scene, s: &Settings) -> Result<RunConfig, String> {
+    let method = match &s.method {
+        Some(name) if name != scene.simulate.method.name() => {
+            MethodSpec::default_for(name).ok_or_else(|| format!("unknown method `{name}`"))?
+        }
+        _ => scene.simulate.method.clone(),
+    };
+    let step = s.step.unwrap_or(scene.simulate.step);
+    let duration = s.duration.unwrap_or(scene.simulate.duration);
+    if !(step > 0.0 && step.is_finite()) {
+        return Err(format!("the step must be positive, got {step}"));
+    }
+    if !(duration >= 0.0 && duration.is_finite()) {
+        return Err(format!("the duration must be non-negative, got {duration}"));
+    }
+    Ok(RunConfig {
+        duration,
+        step,
+        method,
+        every: s.every.unwrap_or(scene.simulate.output.every).max(1),
+        on_failure: if s.halve_step {
+            OnFailure::HalveStep(10)
+        } else {
+            OnFailure::Stop
+        },
+        watchdog: Watchdog::for_scale(run::length_scale(sys), energy_sources(scene)),
+    })
+}
+
+/// The lines `mbdc run --assemble` prints about an assembly.
+pub fn assembly_report(a: &crate::assemble::Assembly) -> Vec<String> {
+    let mut v = vec![format!(
+        "assembled in {} iteration(s): violation {:.3e} → {:.3e}, velocity residual {:.3e} → {:.3e}",
+        a.iterations, a.residual.0, a.residual.1, a.velocity_residual.0, a.velocity_residual.1
+    )];
+    for m in &a.moved {
+        v.push(format!(
+            "  moved {:<16} by {:.3e} m and {:.3e} rad; velocity changed by {:.3e} m/s and {:.3e} rad/s",
+            m.body, m.translation, m.rotation, m.velocity, m.angular_velocity
+        ));
+    }
+    v
+}
+
+/// Parsed program arguments.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Args {
+    /// `--scene`.
+    pub scene: Option<PathBuf>,
+    /// Run settings.
+    pub settings: Settings,
+    /// `--out`.
+    pub out: Option<PathBuf>,
+    /// `--assemble`.
+    pub assemble: bool,
+    /// `--progress`.
+    pub progress: bool,
+    /// `--quiet`.
+    pub quiet: bool,
+}
+
+impl Args {
+    /// Parse arguments (without the program name).
+    pub fn parse<I: IntoIterator<Item = String>>(args: I) -> Result<Args, String> {
+        let mut a = Args::default();
+        let mut it = args.into_iter();
+        while let Some(flag) = it.next() {
+            let mut value = |what: &str| {
+                it.next()
+                    .ok_or_else(|| format!("`{flag}` needs a value ({what})"))
+            };
+            let num = |v: String, what: &str| -> Result<f64, String> {
+                v.parse::<f64>()
+                    .map_err(|_| format!("`{flag}`: `{v}` is not a number ({what})"))
+            };
+            match flag.as_str() {
+                "--scene" => a.scene = Some(PathBuf::from(value("a JSON file")?)),
+                "--method" => a.settings.method = Some(value("a method name")?),
+                "--step" => a.settings.step = Some(num(value("seconds")?, "seconds")?),
+                "--duration" => a.settings.duration = Some(num(value("seconds")?, "seconds")?),
+                "--every" => {
+                    let v = value("a step count")?;
+                    a.settings.every = Some(
+                        v.parse()
+                            .map_err(|_| format!("`--every`: `{v}` is not a step count"))?,
+                    );
+                }
+                "--out" | "-o" => a.out = Some(PathBuf::from(value("a folder")?)),
+                "--on-failure" => match value("stop or halve-step")?.as_str() {
+                    "stop" => a.settings.halve_step = false,
+                    "halve-step" => a.settings.halve_step = true,
+                    v => {
+                        return Err(format!(
+                            "`--on-failure`: expected stop or halve-step, found `{v}`"
+                        ))
+                    }
+                },
+                "--assemble" => a.assemble = true,
+                "--progress" => a.progress = true,
+                "--quiet" | "-q" => a.quiet = true,
+                f => return Err(format!("unknown argument `{f}`")),
+            }
+        }
+        Ok(a)
+    }
+}
+
+/// Progress reporting of the program: protocol lines or plain notices.
+struct Reporter {
+    protocol: bool,
+    last: Instant,
+}
+
+impl Observer for Reporter {
+    fn frame(&mut self, _f: &Frame<'_>) {}
+    fn progress(&mut self, t: f64) {
+        if self.protocol && self.last.elapsed() >= Duration::from_millis(50) {
+            self.last = Instant::now();
+            eprintln!("{PROTOCOL}progress {t}");
+        }
+    }
+    fn notice(&mut self, m: &str) {
+        if self.protocol {
+            eprintln!(
+                "{PROTOCOL}notice {}",
+                m.replace('\\', "\\\\").replace('\n', "\\n")
+            );
+        } else {
+            eprintln!("note: {m}");
+        }
+    }
+}
+
+/// Run the program of a compiled model `M` with the process arguments (see the module
+/// doc). The `main` of a generated crate is `mbdc_runtime::app::main::<Model>()`.
+pub fn main<M: CompiledModel>() -> ExitCode {
+    match Args::parse(std::env::args().skip(1)) {
+        Ok(a) => run_with::<M>(&a),
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::from(2)
+        }
+    }
+}
+
+/// Run a compiled model with parsed arguments.
+pub fn run_with<M: CompiledModel>(args: &Args) -> ExitCode {
+    let fail = |e: String| {
+        eprintln!("error: {e}");
+        ExitCode::from(2)
+    };
+    let scene = match &args.scene {
+        Some(p) => match std::fs::read_to_string(p) {
+            Ok(text) => compiled::scene_from_json(&text),
+            Err(e) => return fail(format!("reading {}: {e}", p.display())),
+        },
+        None => M::default_scene(),
+    };
+    let scene = match scene {
+        Ok(s) => s,
+        Err(e) => return fail(e.to_string()),
+    };
+    let mut sys = match M::from_scene(&scene) {
+        Ok(s) => s,
+        Err(e) => return fail(e.to_string()),
+    };
+    if args.assemble {
+        let mut st = State::initial(&sys);
+        match crate::assemble::assemble(&sys, &mut st.pose, &mut st.twist) {
+            Ok(a) => {
+                if !args.quiet {
+                    for l in assembly_report(&a) {
+                        eprintln!("{l}");
+                    }
+                }
+                sys.set_initial_state(&st.pose, &st.twist);
+            }
+            Err(e) => return fail(format!("{e}\n  help: check the joints' points and axes; `mbdc check` lists each joint's violation at t = 0")),
+        }
+    }
+    let cfg = match run_config(&sys, &scene, &args.settings) {
+        Ok(c) => c,
+        Err(e) => return fail(e),
+    };
+    let dir = args
+        .out
+        .clone()
+        .unwrap_or_else(|| PathBuf::from("out").join(&scene.name));
+    let meta = RunMeta {
+        model: scene.name.clone(),
+        method: cfg.method.name().into(),
+        step: cfg.step,
+        duration: cfg.duration,
+    };
+    let mut rep = Reporter {
+        protocol: args.progress,
+        last: Instant::now(),
+    };
+    match run::run_to_dir(&sys, &cfg, meta, &scene.simulate.output, &dir, &mut rep) {
+        Ok((report, summary)) => {
+            if !args.progress && !args.quiet {
+                println!(
+                    "{} — {} with {}: {} steps to t = {:.6} s in {:.3} s; output in {}",
+                    summary.model,
+                    if report.finished {
+                        "finished"
+                    } else {
+                        "STOPPED"
+                    },
+                    summary.method,
+                    summary.steps,
+                    summary.final_time,
+                    summary.wall_time,
+                    dir.display()
+                );
+                if let Some(f) = &report.failure {
+                    eprintln!("error: {f}");
+                }
+            }
+            if report.finished {
+                ExitCode::SUCCESS
+            } else {
+                ExitCode::FAILURE
+            }
+        }
+        Err(e) => fail(format!("writing the output folder {}: {e}", dir.display())),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn arguments() {
+        let a = Args::parse(
+            [
+                "--method",
+                "baumgarte",
+                "--step",
+                "1e-3",
+                "--out",
+                "x",
+                "--on-failure",
+                "halve-step",
+                "--progress",
+            ]
+            .map(String::from),
+        )
+        .unwrap();
+        assert_eq!(a.settings.method.as_deref(), Some("baumgarte"));
+        assert_eq!(a.settings.step, Some(1e-3));
+        assert!(a.settings.halve_step && a.progress && !a.quiet);
+        assert_eq!(a.out, Some(PathBuf::from("x")));
+        assert!(Args::parse(["--step".to_string()]).is_err());
+        assert!(Args::parse(["--step", "x"].map(String::from)).is_err());
+        assert!(Args::parse(["--bogus".to_string()]).is_err());
+    }
+}

@@ -1,0 +1,51 @@
+//! Generates the Rust of every rigid model in `models/`, in both code layouts, through the
+//! `build.rs` API, and a registry that visits each generated model.
+
+use std::fmt::Write as _;
+use std::path::PathBuf;
+
+use mbdc_runtime::compiled::Mode;
+
+fn main() {
+    let models = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../models");
+    println!("cargo:rerun-if-changed={}", models.display());
+    let mut files: Vec<PathBuf> = std::fs::read_dir(&models)
+        .expect("models/")
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.extension().is_some_and(|e| e == "mbd"))
+        .collect();
+    files.sort();
+    let out = PathBuf::from(std::env::var("OUT_DIR").expect("OUT_DIR"));
+    let mut reg = String::new();
+    let mut visits = String::new();
+    for f in &files {
+        let loaded = mbdc_compiler::load_file(f, &[]);
+        let Some(scene) = loaded.scene else { continue };
+        // Only scenes the rigid-body runtime simulates (no beams, no meshes).
+        if mbdc_runtime::interp::Interp::new(&scene).is_err() {
+            continue;
+        }
+        let file = f.file_name().unwrap().to_string_lossy().to_string();
+        for (mode, suffix) in [(Mode::Unrolled, "unrolled"), (Mode::Tables, "tables")] {
+            let module = format!(
+                "{}_{suffix}",
+                mbdc_compiler::codegen::module_name(&scene.name)
+            );
+            let built = mbdc_compiler::Builder::new(f)
+                .module(&module)
+                .mode(mode)
+                .out_dir(&out)
+                .build();
+            writeln!(reg, "include!({:?});", built.rs.display().to_string()).unwrap();
+            writeln!(
+                visits,
+                "    v.visit::<{module}::Model>({file:?}, {suffix:?});"
+            )
+            .unwrap();
+        }
+    }
+    let text = format!(
+        "{reg}\n/// Visit every generated model: (model file, layout).\npub fn visit_all<V: crate::Visitor>(v: &mut V) {{\n{visits}}}\n"
+    );
+    mbdc_compiler::embed::write_if_changed(&out.join("registry.rs"), &text).expect("registry");
+}
