@@ -270,6 +270,13 @@ impl Partitioning {
         qbar(layout, &self.applied, &self.vel, &mut self.q);
         sys.constraints(t, &self.pose, &self.vel, Need::ALL, &mut self.ce);
         self.dense_b(layout);
+        if self.rows.is_empty() {
+            // no active constraint: ü = M⁻¹ Q̄
+            for i in 0..nb {
+                self.acc[i] = common::accel(&layout.mass[i], &self.q[i]);
+            }
+            return Ok(());
+        }
         self.factor_bd(sys)?;
         let (ma, ni, n) = (self.rows.len(), self.ind.len(), 6 * nb);
         // T = B_d⁻¹ B_i, column by column
@@ -449,6 +456,9 @@ impl Partitioning {
         let layout = sys.layout();
         sys.constraints(t, &self.pose, &self.vel, Need::JAC, &mut self.ce);
         self.dense_b(layout);
+        if self.rows.is_empty() {
+            return Ok(());
+        }
         self.factor_bd(sys)?;
         let ma = self.rows.len();
         for (k, &r) in self.rows.iter().enumerate() {
