@@ -195,7 +195,11 @@ pub fn summary(scene: &Scene) -> CheckSummary {
             .map(|b| b.name.clone())
             .unwrap_or_else(|| format!("#{i}")),
     };
-    let violations = kinematics::initial_violations(scene);
+    let check = kinematics::initial_check(scene);
+    let violations = check.as_ref().map_or_else(
+        || vec![(0.0, 0.0); scene.joints.len()],
+        |c| c.violations.clone(),
+    );
     let joints: Vec<JointSummary> = scene
         .joints
         .iter()
@@ -252,7 +256,7 @@ pub fn summary(scene: &Scene) -> CheckSummary {
         holonomic_rows,
         nonholonomic_rows,
         dof: 6 * scene.bodies.len() as i64 - holonomic_rows as i64,
-        jacobian_rank: kinematics::jacobian_rank(scene),
+        jacobian_rank: check.as_ref().map(|c| c.rank),
         effects: scene.effects().names(),
         forces,
         contacts: scene.contacts.iter().map(|c| c.name.clone()).collect(),

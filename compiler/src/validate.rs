@@ -15,11 +15,11 @@ pub const VIOLATION_TOLERANCE: f64 = 1e-6;
 /// Diagnostics (warnings and notes) about a valid scene.
 pub fn validate(scene: &Scene, sources: &Sources) -> Vec<Diagnostic> {
     let mut out = Vec::new();
-    for (j, (p, v)) in scene
-        .joints
-        .iter()
-        .zip(kinematics::initial_violations(scene))
-    {
+    let Some(check) = kinematics::initial_check(scene) else {
+        return out;
+    };
+    for (j, (p, v)) in scene.joints.iter().zip(&check.violations) {
+        let (p, v) = (*p, *v);
         let (file, span) = Sources::resolve(j.origin);
         if p > VIOLATION_TOLERANCE {
             out.push(
@@ -41,27 +41,27 @@ pub fn validate(scene: &Scene, sources: &Sources) -> Vec<Diagnostic> {
                     format!("the initial velocities violate joint `{}` by {v:.3e}", j.name),
                 )
                 .primary(file, span, "velocities not consistent with this joint")
-                .help("give velocities that satisfy the constraint (the joint points must move together)"),
+                .help("give velocities that satisfy the constraint (the joint points must move together), or run with `mbdc run --assemble`"),
             );
         }
     }
-    if let Some((rank, rows)) = kinematics::jacobian_rank(scene) {
-        if rank < rows {
-            let mut d = Diagnostic::warning(
-                codes::DOF,
-                format!(
-                    "the joints have {} redundant constraint row{} at t = 0 (Jacobian rank {rank} of {rows} rows)",
-                    rows - rank,
-                    if rows - rank == 1 { "" } else { "s" }
-                ),
-            )
-            .help("planar mechanisms modelled with 3-D revolute joints are redundant; spherical or universal joints remove the extra rows");
-            if let Some(j) = scene.joints.first() {
-                let (f, s) = Sources::resolve(j.origin);
-                d = d.primary(f, s, "");
-            }
-            out.push(d);
+    let (rank, rows) = check.rank;
+    if rank < rows {
+        let mut d = Diagnostic::warning(
+            codes::DOF,
+            format!(
+                "the joints have {} redundant constraint row{} at t = 0 (Jacobian rank {rank} of {rows} rows): {}",
+                rows - rank,
+                if rows - rank == 1 { "" } else { "s" },
+                check.redundant.join("; ")
+            ),
+        )
+        .help("redundant rows are fine for the staggered method (it regularizes them) but make the Lagrange-multiplier methods fail; planar mechanisms modelled with 3-D revolute joints are redundant, spherical or universal joints remove the extra rows");
+        if let Some(j) = scene.joints.first() {
+            let (f, s) = Sources::resolve(j.origin);
+            d = d.primary(f, s, "");
         }
+        out.push(d);
     }
     let free = free_bodies(scene);
     if !free.is_empty() {
