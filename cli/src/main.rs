@@ -8,6 +8,7 @@
 //! derive) and a `run(args) -> ExitCode` function; add a variant to [`Command`] to add one.
 
 mod commands;
+mod compiled;
 mod plot;
 mod render;
 
@@ -31,6 +32,8 @@ enum Command {
     Fmt(commands::fmt::Args),
     /// Simulate a scene and write its output folder (CSV time series, summary.json).
     Run(commands::run::Args),
+    /// Generate a scene's Rust (`--emit FILE.rs`) or build its program.
+    Build(commands::build::Args),
     /// Run a scene across step sizes and methods: error vs CPU time (work–precision).
     Sweep(commands::sweep::Args),
     /// Draw the plots of a run's output folder, or chosen quantities against time.
@@ -43,6 +46,7 @@ fn main() -> ExitCode {
         Command::Check(a) => commands::check::run(a),
         Command::Fmt(a) => commands::fmt::run(a),
         Command::Run(a) => commands::run::run(a),
+        Command::Build(a) => commands::build::run(a),
         Command::Sweep(a) => commands::sweep::run(a),
         Command::Plot(a) => commands::plot::run(a),
     }

@@ -1,5 +1,6 @@
 //! Subcommands.
 
+pub mod build;
 pub mod check;
 pub mod fmt;
 pub mod plot;

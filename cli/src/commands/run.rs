@@ -1,7 +1,10 @@
 //! `mbdc run FILE`: simulate a scene and write its output folder.
 //!
-//! The interpreter path ([`mbdc_runtime::interp::Interp`]) is used with `--interp`. The run
-//! streams `bodies.csv`, `energy.csv`, `constraints.csv` and `summary.json` into the output
+//! By default the scene runs as compiled code: its Rust is generated, built with cargo in
+//! the shared workspace of compiled scenes (once per scene structure; a changed number or
+//! `--set` override reuses the program) and run ([`crate::compiled`]). `--interp` runs the
+//! interpreter ([`mbdc_runtime::interp::Interp`]) in this process instead, with no build.
+//! Both paths give the same numbers, bit for bit. The run streams `bodies.csv`, `energy.csv`, `constraints.csv` and `summary.json` into the output
 //! folder as it proceeds, shows a progress bar when the run takes longer than a second, and
 //! ends with a summary (steps, wall time, constraint violation, energy drift) or a failure
 //! report that says where and why.
@@ -12,9 +15,10 @@ use std::time::{Duration, Instant};
 
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use mbdc_compiler::Override;
+use mbdc_runtime::app::Settings;
 use mbdc_runtime::interp::Interp;
 use mbdc_runtime::output::{RunMeta, Summary};
-use mbdc_runtime::run::{self, Frame, Observer, OnFailure, RunConfig, Watchdog};
+use mbdc_runtime::run::{self, Frame, Observer, RunConfig};
 use mbdc_runtime::scene::{MethodSpec, Scene};
 use mbdc_runtime::system::System;
 
@@ -52,7 +56,7 @@ pub struct Args {
     /// Output folder (default: `out/<model name>`).
     #[arg(short = 'o', long = "out", value_name = "DIR")]
     pub out: Option<PathBuf>,
-    /// Use the interpreter.
+    /// Use the interpreter (no build; the default compiles the scene).
     #[arg(long)]
     pub interp: bool,
     /// Move the initial state onto the constraints before running, and report what moved.
@@ -89,35 +93,17 @@ pub fn load(file: &std::path::Path, set: &[Override]) -> Result<Scene, ExitCode>
     })
 }
 
-/// The run settings from the scene and the arguments.
+/// The run settings from the scene and the arguments (the same rule as the compiled
+/// program's, [`mbdc_runtime::app::run_config`]).
 pub fn config<S: System>(sys: &S, scene: &Scene, args: &Args) -> Result<RunConfig, String> {
-    let method = match &args.method {
-        Some(name) if name != scene.simulate.method.name() => {
-            MethodSpec::default_for(name).ok_or_else(|| format!("unknown method `{name}`"))?
-        }
-        _ => scene.simulate.method.clone(),
+    let settings = Settings {
+        method: args.method.clone(),
+        step: args.step,
+        duration: args.duration,
+        every: args.every,
+        halve_step: args.on_failure == FailurePolicy::HalveStep,
     };
-    let step = args.step.unwrap_or(scene.simulate.step);
-    let duration = args.duration.unwrap_or(scene.simulate.duration);
-    if !(step > 0.0 && step.is_finite()) {
-        return Err(format!("the step must be positive, got {step}"));
-    }
-    if !(duration >= 0.0 && duration.is_finite()) {
-        return Err(format!("the duration must be non-negative, got {duration}"));
-    }
-    let e = scene.effects();
-    let sources = e.applied_forces || e.drivers || e.nonholonomic || e.contact || e.time_dependence;
-    Ok(RunConfig {
-        duration,
-        step,
-        method,
-        every: args.every.unwrap_or(scene.simulate.output.every).max(1),
-        on_failure: match args.on_failure {
-            FailurePolicy::Stop => OnFailure::Stop,
-            FailurePolicy::HalveStep => OnFailure::HalveStep(10),
-        },
-        watchdog: Watchdog::for_scale(run::length_scale(sys), sources),
-    })
+    mbdc_runtime::app::run_config(sys, scene, &settings)
 }
 
 /// A progress bar that appears once a run has taken more than a second.
@@ -146,6 +132,14 @@ impl Progress {
             start: Instant::now(),
             duration,
             shown: false,
+        }
+    }
+
+    /// Print a line on stderr without breaking the bar.
+    pub fn print(&self, line: &str) {
+        match &self.bar {
+            Some(b) => b.suspend(|| eprintln!("{line}")),
+            None => eprintln!("{line}"),
         }
     }
 
@@ -187,6 +181,9 @@ pub fn run(args: Args) -> ExitCode {
         Ok(s) => s,
         Err(code) => return code,
     };
+    if !args.interp {
+        return crate::compiled::run(&scene, &args);
+    }
     let mut sys = match Interp::new(&scene) {
         Ok(s) => s,
         Err(e) => {
@@ -208,15 +205,8 @@ fn assemble(sys: &mut Interp, quiet: bool) -> Result<(), ExitCode> {
     match mbdc_runtime::assemble::assemble(&*sys, &mut st.pose, &mut st.twist) {
         Ok(a) => {
             if !quiet {
-                eprintln!(
-                    "assembled in {} iteration(s): violation {:.3e} → {:.3e}, velocity residual {:.3e} → {:.3e}",
-                    a.iterations, a.residual.0, a.residual.1, a.velocity_residual.0, a.velocity_residual.1
-                );
-                for m in &a.moved {
-                    eprintln!(
-                        "  moved {:<16} by {:.3e} m and {:.3e} rad; velocity changed by {:.3e} m/s and {:.3e} rad/s",
-                        m.body, m.translation, m.rotation, m.velocity, m.angular_velocity
-                    );
+                for l in mbdc_runtime::app::assembly_report(&a) {
+                    eprintln!("{l}");
                 }
             }
             sys.set_initial_state(&st.pose, &st.twist);

@@ -24,7 +24,15 @@ impl Visitor for Agree {
             return;
         };
         let interp = Interp::new(&scene).expect("interpretable");
-        let generated = M::from_scene(&scene).expect("same structure");
+        // The compiled program reads its numbers from the scene's JSON (`mbdc run` passes it):
+        // the round trip must be exact.
+        let json = serde_json::to_string(&scene).expect("serializes");
+        let back = mbdc_runtime::compiled::scene_from_json(&json).expect("parses");
+        if back != scene {
+            self.failures
+                .push(format!("{file}: the scene changes through JSON"));
+        }
+        let generated = M::from_scene(&back).expect("same structure");
         for method in methods(&scene) {
             let cfg = config(&interp, &scene, &method, 1000);
             // A panic of the interpreter is a runtime bug outside generated code: noted, skipped.
