@@ -1,0 +1,135 @@
+//! End-to-end runs of `mbdc run --interp` on every rigid model, and of a run that fails.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn mbdc() -> Command {
+    let mut c = Command::new(env!("CARGO_BIN_EXE_mbdc"));
+    c.env("NO_COLOR", "1");
+    c
+}
+
+fn root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
+}
+
+fn out_dir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("mbdc-run-test-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    d
+}
+
+fn summary(dir: &Path) -> serde_json::Value {
+    let text = std::fs::read_to_string(dir.join("summary.json")).expect("summary.json");
+    serde_json::from_str(&text).expect("valid JSON")
+}
+
+/// Every rigid model runs to its end with its own settings, and the summary says so: finished,
+/// the steps it should take, a constraint violation below 1e-8 (the models' own ε: 1e-6 for the
+/// papers' bowling ball and crank gives εΔλ ≈ 4e-5 there; the deployment arm's locks overshoot
+/// by one step) and an output folder with the CSVs.
+#[test]
+fn every_rigid_model_runs_to_the_end() {
+    for (model, max_violation) in [
+        ("double_pendulum_3d", 1e-8),
+        ("chain", 1e-8),
+        ("four_bar", 1e-8),
+        ("slider_crank", 1e-3),
+        ("bowling_ball", 1e-3),
+        ("torque_free", 1e-8),
+        // a lock engages after the step in which its joint passes the lock angle, so the
+        // frame of that step shows the overshoot, at most h·θ̇ ≈ 1e-3 s × 8.4 rad/s
+        ("deployment_arm", 1e-2),
+    ] {
+        let dir = out_dir(model);
+        let out = mbdc()
+            .args(["run", "--interp", "-o"])
+            .arg(&dir)
+            .arg(root().join(format!("models/{model}.mbd")))
+            .output()
+            .expect("runs");
+        let stdout = String::from_utf8_lossy(&out.stdout);
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(out.status.success(), "{model}: {stdout}\n{stderr}");
+        assert!(stdout.contains("finished"), "{model}: {stdout}");
+        let s = summary(&dir);
+        assert_eq!(s["finished"], true, "{model}: {s}");
+        assert!(s["failure"].is_null());
+        let v = s["max_constraint_violation"].as_f64().expect("a number");
+        assert!(v < max_violation, "{model}: violation {v}");
+        let steps = s["steps"].as_u64().unwrap();
+        let expect = (s["duration"].as_f64().unwrap() / s["step"].as_f64().unwrap()).round() as u64;
+        assert!(
+            steps.abs_diff(expect) <= 1,
+            "{model}: {steps} steps, expected {expect}"
+        );
+        for f in ["bodies.csv", "energy.csv", "constraints.csv"] {
+            assert!(dir.join(f).exists(), "{model}: no {f}");
+        }
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+}
+
+/// A run that goes wrong stops with a non-zero exit code and a report naming where and why,
+/// keeps the frames written up to then, and says so in summary.json.
+#[test]
+fn a_failing_run_reports_and_keeps_its_frames() {
+    let dir = out_dir("fail");
+    // the penalty method with a far too small ε: the penalty frequency is far above 2/h
+    let model = std::env::temp_dir().join(format!("mbdc-run-test-{}-fail.mbd", std::process::id()));
+    std::fs::write(
+        &model,
+        "model stiff_penalty {\n gravity (0, 0, -9.81) m/s^2\n body rod { mass 1 kg; inertia rod(length: 1 m, radius: 1 cm); position (0.5, 0, 0) m; orientation axis_angle((0, 1, 0), 90 deg) }\n joint pin = revolute(ground @ (0, 0, 0), rod @ (0, 0, 0.5) m, axis: (0, 1, 0))\n simulate { duration 1 s; step 1 ms; method penalty { epsilon 1e-12 } }\n}\n",
+    )
+    .unwrap();
+    let out = mbdc()
+        .args(["run", "--interp", "-o"])
+        .arg(&dir)
+        .arg(&model)
+        .output()
+        .expect("runs");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    assert!(stderr.contains("stopped at t ="), "{stderr}");
+    assert!(stderr.contains("help:"), "{stderr}");
+    let s = summary(&dir);
+    assert_eq!(s["finished"], false);
+    let f = &s["failure"];
+    assert!(
+        f["where"].as_str().unwrap().contains("pin")
+            || f["where"].as_str().unwrap().contains("rod"),
+        "{f}"
+    );
+    let t_fail = f["time"].as_f64().unwrap();
+    // the frames up to the failure are on disk
+    let rows = std::fs::read_to_string(dir.join("bodies.csv"))
+        .unwrap()
+        .lines()
+        .count();
+    assert!(rows >= 2, "only {rows} lines in bodies.csv");
+    let last_t: f64 = std::fs::read_to_string(dir.join("bodies.csv"))
+        .unwrap()
+        .lines()
+        .last()
+        .unwrap()
+        .split(',')
+        .next()
+        .unwrap()
+        .parse()
+        .unwrap();
+    assert!(
+        last_t <= t_fail + 1e-12,
+        "frame at {last_t} after the failure at {t_fail}"
+    );
+    // and halving the step rescues it
+    let out = mbdc()
+        .args(["run", "--interp", "--on-failure", "halve-step", "-q", "-o"])
+        .arg(&dir)
+        .arg(&model)
+        .output()
+        .expect("runs");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(stderr.contains("halved"), "{stderr}");
+    let _ = std::fs::remove_dir_all(&dir);
+    let _ = std::fs::remove_file(&model);
+}
