@@ -11,6 +11,7 @@ mod commands;
 mod compiled;
 mod plot;
 mod render;
+mod stability;
 
 use std::process::ExitCode;
 

@@ -32,6 +32,7 @@ pub mod math;
 pub mod output;
 pub mod run;
 pub mod scene;
+pub mod stability;
 pub mod system;
 pub mod topology;
 

@@ -68,6 +68,9 @@ pub struct Args {
     /// No progress bar and no summary (errors are still printed).
     #[arg(short, long)]
     pub quiet: bool,
+    /// Run even if the step is above the stability limit of an explicit method.
+    #[arg(long)]
+    pub force: bool,
 }
 
 fn parse_override(s: &str) -> Result<Override, String> {
@@ -181,6 +184,15 @@ pub fn run(args: Args) -> ExitCode {
         Ok(s) => s,
         Err(code) => return code,
     };
+    if let Err(code) = crate::stability::gate(
+        &scene,
+        args.method.as_deref(),
+        args.step,
+        args.force,
+        args.quiet,
+    ) {
+        return code;
+    }
     if !args.interp {
         return crate::compiled::run(&scene, &args);
     }

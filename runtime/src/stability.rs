@@ -1,0 +1,267 @@
+//! An estimate of the fastest motion in a scene, before it runs: the explicit stability limit
+//! `h·ω_max ≤ 2` and the accuracy rule of at least 20 steps per period of the fastest response
+//! (notes A §1.10).
+//!
+//! Sources, each with the element it comes from so a report can name it:
+//! - spin: a body's initial angular rate |ω| (the paper's "highest angular velocity of the
+//!   rigid components");
+//! - translational springs: `ω = √(k/m_eff)` along the spring's line, where
+//!   `1/m_eff = Σ_sides (1/m + (ρ × n)·J⁻¹(ρ × n))` includes the lever arm ρ of each attachment
+//!   (a body on a constraint can only be stiffer than its free mass suggests through other
+//!   springs, which are listed separately);
+//! - rotational springs: `ω = √(k (a·J_a⁻¹a + a·J_b⁻¹a))` about the joint axis a;
+//! - penalty contact: `ω = √(k/m)` of the lighter body;
+//! - damping (springs' and contact's): the rate `c/m_eff`, whose explicit limit (lagged
+//!   evaluation, notes A §1.9) is `c h / m_eff < 2`, so it is reported as an equivalent ω.
+//!
+//! It is an estimate: constraints can raise the frequencies of springs attached through them
+//! (a short lever) and motion can raise spin rates; the watchdog catches what it misses.
+
+use nalgebra::{Matrix3, Vector3};
+
+use crate::math::{quat, rotation, vec3};
+use crate::scene::{Attachment, BodyRef, ForceKind, Scene};
+
+/// One source of fast motion.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Source {
+    /// Angular frequency (or rate), rad/s.
+    pub omega: f64,
+    /// What it is, naming the element: `spring 'k'`, `spin of body 'rotor'`.
+    pub what: String,
+}
+
+/// The estimate for a scene.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Estimate {
+    /// All sources, fastest first.
+    pub sources: Vec<Source>,
+}
+
+impl Estimate {
+    /// The fastest source, if any.
+    pub fn fastest(&self) -> Option<&Source> {
+        self.sources.first()
+    }
+
+    /// Largest step of an explicit method: `2/ω_max` (infinite without sources).
+    pub fn stable_step(&self) -> f64 {
+        self.fastest().map_or(f64::INFINITY, |s| 2.0 / s.omega)
+    }
+
+    /// Largest step with 20 steps per period of the fastest source: `2π/(20 ω_max)`.
+    pub fn accurate_step(&self) -> f64 {
+        self.fastest()
+            .map_or(f64::INFINITY, |s| std::f64::consts::TAU / (20.0 * s.omega))
+    }
+}
+
+/// Whether a method integrates the coordinates explicitly (and so has a stability limit).
+pub fn is_explicit(method: &crate::scene::MethodSpec) -> bool {
+    !matches!(
+        method,
+        crate::scene::MethodSpec::ImplicitTrapezoid { .. }
+            | crate::scene::MethodSpec::StateTime { .. }
+    )
+}
+
+struct BodyData {
+    m: f64,
+    j_inv: Matrix3<f64>,
+    c: Matrix3<f64>,
+}
+
+/// Estimate the fastest motions of `scene` at its initial state.
+pub fn estimate(scene: &Scene) -> Estimate {
+    let bodies: Vec<Option<BodyData>> = scene
+        .bodies
+        .iter()
+        .map(|b| {
+            let j = Matrix3::from_row_slice(&b.inertia.concat());
+            j.try_inverse().map(|j_inv| BodyData {
+                m: b.mass,
+                j_inv,
+                c: rotation(&quat(b.orientation)),
+            })
+        })
+        .collect();
+    let mut sources = Vec::new();
+    for b in &scene.bodies {
+        let w = vec3(&b.angular_velocity).norm();
+        if w > 0.0 {
+            sources.push(Source {
+                omega: w,
+                what: format!("spin of body '{}'", b.name),
+            });
+        }
+    }
+    // 1/m_eff of an attachment along world direction n (0 for ground)
+    let inv_mass_along = |a: &Attachment, n: &Vector3<f64>| -> f64 {
+        match a.body {
+            BodyRef::Ground => 0.0,
+            BodyRef::Body(i) => match bodies.get(i).and_then(|b| b.as_ref()) {
+                Some(b) => {
+                    let nb = b.c.transpose() * n;
+                    let rn = vec3(&a.point).cross(&nb);
+                    1.0 / b.m + rn.dot(&(b.j_inv * rn))
+                }
+                None => 0.0,
+            },
+        }
+    };
+    let world_point = |a: &Attachment| -> Vector3<f64> {
+        match a.body {
+            BodyRef::Ground => vec3(&a.point),
+            BodyRef::Body(i) => {
+                let b = &scene.bodies[i];
+                vec3(&b.position) + rotation(&quat(b.orientation)) * vec3(&a.point)
+            }
+        }
+    };
+    for f in &scene.forces {
+        match &f.kind {
+            ForceKind::Spring {
+                a,
+                b,
+                stiffness,
+                damping,
+                ..
+            } => {
+                let d = world_point(b) - world_point(a);
+                let n = if d.norm() > 1e-12 {
+                    d / d.norm()
+                } else {
+                    Vector3::x()
+                };
+                let w = inv_mass_along(a, &n) + inv_mass_along(b, &n);
+                if *stiffness > 0.0 && w > 0.0 {
+                    sources.push(Source {
+                        omega: (stiffness * w).sqrt(),
+                        what: format!("spring '{}'", f.name),
+                    });
+                }
+                if *damping > 0.0 && w > 0.0 {
+                    sources.push(Source {
+                        omega: damping * w,
+                        what: format!("damping of '{}' (rate c/m)", f.name),
+                    });
+                }
+            }
+            ForceKind::RotationalSpring {
+                joint,
+                stiffness,
+                damping,
+                ..
+            } => {
+                let Some(j) = scene.joints.get(*joint) else {
+                    continue;
+                };
+                let axis_of = |a: &Attachment| -> f64 {
+                    match a.body {
+                        BodyRef::Ground => 0.0,
+                        BodyRef::Body(i) => match bodies.get(i).and_then(|b| b.as_ref()) {
+                            Some(b) => {
+                                let ax = rotation(&quat(a.frame)) * Vector3::z();
+                                ax.dot(&(b.j_inv * ax))
+                            }
+                            None => 0.0,
+                        },
+                    }
+                };
+                let w = axis_of(&j.a) + axis_of(&j.b);
+                if *stiffness > 0.0 && w > 0.0 {
+                    sources.push(Source {
+                        omega: (stiffness * w).sqrt(),
+                        what: format!("rotational spring '{}'", f.name),
+                    });
+                }
+                if *damping > 0.0 && w > 0.0 {
+                    sources.push(Source {
+                        omega: damping * w,
+                        what: format!("damping of '{}' (rate c/J)", f.name),
+                    });
+                }
+            }
+            _ => {}
+        }
+    }
+    for c in &scene.contacts {
+        let inv = |a: &Attachment| match a.body {
+            BodyRef::Ground => 0.0,
+            BodyRef::Body(i) => 1.0 / scene.bodies[i].mass,
+        };
+        let w = inv(&c.a.0) + inv(&c.b.0);
+        if c.stiffness > 0.0 && w > 0.0 {
+            sources.push(Source {
+                omega: (c.stiffness * w).sqrt(),
+                what: format!("contact '{}'", c.name),
+            });
+        }
+        if c.damping > 0.0 && w > 0.0 {
+            sources.push(Source {
+                omega: c.damping * w,
+                what: format!("damping of contact '{}'", c.name),
+            });
+        }
+    }
+    sources.sort_by(|a, b| b.omega.total_cmp(&a.omega));
+    Estimate { sources }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::*;
+
+    fn body(name: &str, m: f64, j: f64, w: [f64; 3]) -> Body {
+        Body {
+            name: name.into(),
+            mass: m,
+            inertia: [[j, 0.0, 0.0], [0.0, j, 0.0], [0.0, 0.0, j]],
+            position: [0.0; 3],
+            orientation: [1.0, 0.0, 0.0, 0.0],
+            velocity: [0.0; 3],
+            angular_velocity: w,
+            origin: Origin::default(),
+        }
+    }
+
+    #[test]
+    fn spring_frequency_and_spin() {
+        let at = |body, point| Attachment {
+            body,
+            point,
+            frame: [1.0, 0.0, 0.0, 0.0],
+        };
+        let scene = Scene {
+            name: "s".into(),
+            gravity: None,
+            bodies: vec![body("m", 2.0, 1.0, [0.0, 0.0, 3.0])],
+            joints: vec![],
+            forces: vec![Force {
+                name: "k".into(),
+                kind: ForceKind::Spring {
+                    a: at(BodyRef::Ground, [-1.0, 0.0, 0.0]),
+                    b: at(BodyRef::Body(0), [0.0; 3]),
+                    stiffness: 800.0,
+                    rest_length: 1.0,
+                    damping: 0.0,
+                },
+                origin: Origin::default(),
+            }],
+            beams: vec![],
+            meshes: vec![],
+            contacts: vec![],
+            simulate: Simulate::default(),
+            reference: None,
+            params: vec![],
+        };
+        let e = estimate(&scene);
+        // √(800/2) = 20 rad/s, then the spin 3 rad/s
+        assert_eq!(e.sources.len(), 2);
+        assert!((e.sources[0].omega - 20.0).abs() < 1e-12, "{e:?}");
+        assert!(e.sources[0].what.contains("'k'"));
+        assert!((e.stable_step() - 0.1).abs() < 1e-12);
+        assert!((e.accurate_step() - std::f64::consts::TAU / 400.0).abs() < 1e-12);
+    }
+}
