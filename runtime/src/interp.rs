@@ -1066,7 +1066,7 @@ impl System for Interp {
         e
     }
 
-    fn tree_joint(&self, joint: usize) -> Option<(TreeJointKind, JointGeom)> {
+    fn tree_joint(&self, joint: usize) -> Option<(TreeJointKind, &JointGeom)> {
         let j = self.joints.get(joint)?;
         let kind = match j.kind {
             JointImpl::Spherical => TreeJointKind::Spherical,
@@ -1078,7 +1078,7 @@ impl System for Interp {
             JointImpl::Planar => TreeJointKind::Planar,
             _ => return None,
         };
-        Some((kind, j.geom))
+        Some((kind, &j.geom))
     }
 
     fn update_locks(&self, pose: &[Pose], _twist: &[Twist], active: &mut [bool]) -> Option<usize> {

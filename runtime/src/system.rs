@@ -317,7 +317,7 @@ pub trait System: Sync {
     /// fixed, planar), `None` otherwise. The geometry must be the one the joint's
     /// constraint rows use. Default: `None` for every joint, which makes
     /// `natural_partitioning` unavailable unless the two methods below are overridden.
-    fn tree_joint(&self, _joint: usize) -> Option<(TreeJointKind, JointGeom)> {
+    fn tree_joint(&self, _joint: usize) -> Option<(TreeJointKind, &JointGeom)> {
         None
     }
 
@@ -337,7 +337,7 @@ pub trait System: Sync {
     ) -> bool {
         match self.tree_joint(joint) {
             Some((kind, g)) => {
-                kin::tree_joint(kind, &g, child_is_b, parent, child, out);
+                kin::tree_joint(kind, g, child_is_b, parent, child, out);
                 true
             }
             None => false,
@@ -358,7 +358,7 @@ pub trait System: Sync {
     ) -> bool {
         match self.tree_joint(joint) {
             Some((kind, g)) => {
-                kin::project(kind, &g, child_is_b, parent, child);
+                kin::project(kind, g, child_is_b, parent, child);
                 true
             }
             None => false,

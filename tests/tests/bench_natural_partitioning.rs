@@ -6,8 +6,11 @@
 //! ```
 //!
 //! (test profile: opt-level 2.) Time per step is the best of three batches of steps after a
-//! warm-up; memory is the bytes the integrator (and the interpreter) hold, counted by a
-//! global allocator (allocated minus freed during construction).
+//! warm-up. The machine is shared, so single-thread figures are the CPU time of the
+//! running thread (`/proc/thread-self/schedstat`: time on the CPU, unaffected by other
+//! processes taking turns; cache sharing still is); thread speed-ups are wall-clock.
+//! Memory is the bytes the integrator (and the interpreter) hold, counted by a global
+//! allocator (allocated minus freed during construction).
 
 use std::alloc::{GlobalAlloc, Layout, System as SysAlloc};
 use std::sync::atomic::{AtomicIsize, Ordering};
@@ -45,6 +48,27 @@ fn live() -> isize {
     LIVE.load(Ordering::Relaxed)
 }
 
+/// CPU time of the calling thread, s (falls back to wall time when unavailable).
+fn cpu_time() -> f64 {
+    std::fs::read_to_string("/proc/thread-self/schedstat")
+        .ok()
+        .and_then(|s| s.split_whitespace().next()?.parse::<f64>().ok())
+        .map_or_else(
+            || {
+                static T0: std::sync::OnceLock<Instant> = std::sync::OnceLock::new();
+                T0.get_or_init(Instant::now).elapsed().as_secs_f64()
+            },
+            |ns| ns * 1e-9,
+        )
+}
+
+/// Whether batches are timed by CPU time (single thread) or wall clock.
+#[derive(Clone, Copy, PartialEq)]
+enum Clock {
+    Cpu,
+    Wall,
+}
+
 fn load(name: &str, param: &str, n: usize) -> Scene {
     let path = format!("{}/../models/bench/{name}", env!("CARGO_MANIFEST_DIR"));
     let o: mbdc_compiler::Override = format!("{param}={n}").parse().unwrap();
@@ -65,6 +89,10 @@ struct Timing {
 }
 
 fn time_method(scene: &Scene, method: &MethodSpec, steps: usize) -> Timing {
+    time_method_with(scene, method, steps, Clock::Cpu)
+}
+
+fn time_method_with(scene: &Scene, method: &MethodSpec, steps: usize, clock: Clock) -> Timing {
     let m0 = live();
     let sys = Interp::new(scene).expect("interpretable");
     let interp_bytes = live() - m0;
@@ -77,11 +105,15 @@ fn time_method(scene: &Scene, method: &MethodSpec, steps: usize) -> Timing {
     }
     let mut best = f64::INFINITY;
     for _ in 0..3 {
-        let t = Instant::now();
+        let (t, c) = (Instant::now(), cpu_time());
         for _ in 0..steps {
             it.step(&sys).expect("step");
         }
-        best = best.min(t.elapsed().as_secs_f64() / steps as f64);
+        let dt = match clock {
+            Clock::Cpu => cpu_time() - c,
+            Clock::Wall => t.elapsed().as_secs_f64(),
+        };
+        best = best.min(dt / steps as f64);
     }
     Timing {
         per_step: best,
@@ -110,6 +142,9 @@ fn stat(t: &Timing, name: &str) -> f64 {
 #[ignore]
 fn bench_natural_partitioning() {
     println!("threads available: {}", rayon_threads());
+    if let Ok(l) = std::fs::read_to_string("/proc/loadavg") {
+        println!("load average at start: {}", l.trim());
+    }
 
     // 1. Scaling.
     println!("\n## Scaling (natural_partitioning, 1 thread)\n");
@@ -169,8 +204,12 @@ fn bench_natural_partitioning() {
     ] {
         let scene = load(name, "N", n);
         let nb = scene.bodies.len();
-        let t1 = natural::with_threads(1, || time_method(&scene, &np(), steps_for(nb)));
-        let t2 = natural::with_threads(2, || time_method(&scene, &np(), steps_for(nb)));
+        let t1 = natural::with_threads(1, || {
+            time_method_with(&scene, &np(), steps_for(nb), Clock::Wall)
+        });
+        let t2 = natural::with_threads(2, || {
+            time_method_with(&scene, &np(), steps_for(nb), Clock::Wall)
+        });
         println!(
             "| {name} | {n} | {:.0} | {:.0} | {:.2} |",
             t1.per_step * 1e6,
@@ -303,6 +342,9 @@ fn profile_natural() {
     let steps: usize = std::env::var("NP_STEPS").map_or(200, |v| v.parse().unwrap());
     let param = if name.starts_with("ladder") { "K" } else { "N" };
     let scene = load(&name, param, n);
-    let t = natural::with_threads(1, || time_method(&scene, &np(), steps));
+    let threads: usize = std::env::var("NP_THREADS").map_or(1, |v| v.parse().unwrap());
+    let t = natural::with_threads(threads, || {
+        time_method_with(&scene, &np(), steps, Clock::Wall)
+    });
     println!("{name} N={n}: {:.1} µs/step", t.per_step * 1e6);
 }

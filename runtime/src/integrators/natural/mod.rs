@@ -97,6 +97,10 @@ pub struct Natural {
     // cut rows
     /// Regularization per cut row.
     e: Vec<f64>,
+    /// The regularization of the current attempt.
+    e_eff: Vec<f64>,
+    lambda_guess: Vec<f64>,
+    regularized_steps: u64,
     epsilon: f64,
     lambda: Vec<f64>,
     lambda_prev: Vec<f64>,
@@ -108,15 +112,13 @@ pub struct Natural {
     ce_trial: ConstraintEval,
     // buffers
     applied: Vec<Wrench>,
-    acc_free: Vec<Twist>,
-    resp: Vec<Twist>,
-    dresp: Vec<Twist>,
     res: Vec<f64>,
     dl: Vec<f64>,
     diag: Vec<f64>,
     work: [Vec<f64>; 4],
     tol: f64,
     rtol: f64,
+
     // statistics
     lints: u64,
     newton_total: u64,
@@ -127,7 +129,7 @@ pub struct Natural {
 }
 
 /// The cut-row operator `S = E + h² G (AᵀMA)⁻¹ Gᵀ` for [`pcg`], with its body-level
-/// response accumulated in `dresp` (`Σ α A(AᵀMA)⁻¹AᵀB_cᵀ p`).
+/// response accumulated in `Node::dresp` (`Σ α A(AᵀMA)⁻¹AᵀB_cᵀ p`).
 struct CutOps<'a, 't> {
     solver: Solver<'t>,
     nodes: &'a mut [Node],
@@ -140,7 +142,6 @@ struct CutOps<'a, 't> {
     e: &'a [f64],
     diag: &'a [f64],
     h2: f64,
-    dresp: &'a mut [Twist],
 }
 
 #[inline]
@@ -231,9 +232,9 @@ impl PcgOps for CutOps<'_, '_> {
     }
 
     fn step(&mut self, alpha: f64) {
-        for (d, n) in self.dresp.iter_mut().zip(self.nodes.iter()) {
-            d.v += n.acc.v * alpha;
-            d.w += n.acc.w * alpha;
+        for n in self.nodes.iter_mut() {
+            n.dresp.v += n.acc.v * alpha;
+            n.dresp.w += n.acc.w * alpha;
         }
     }
 }
@@ -301,6 +302,9 @@ impl Natural {
             t0: start.t,
             half_steps: 0,
             e: vec![0.0; m],
+            e_eff: vec![0.0; m],
+            lambda_guess: vec![0.0; m],
+            regularized_steps: 0,
             epsilon: 0.0,
             lambda: vec![0.0; m],
             lambda_prev: vec![0.0; m],
@@ -308,18 +312,17 @@ impl Natural {
             tau_lambda: start.t,
             active: start.active.clone(),
             next_active: start.active.clone(),
-            ce: ConstraintEval::new(layout.rows),
-            ce_trial: ConstraintEval::new(layout.rows),
+            // only evaluated when there are cut rows
+            ce: ConstraintEval::new(if m > 0 { layout.rows } else { 0 }),
+            ce_trial: ConstraintEval::new(if m > 0 { layout.rows } else { 0 }),
             applied: vec![Wrench::default(); nb],
-            acc_free: vec![Twist::default(); nb],
-            resp: vec![Twist::default(); nb],
-            dresp: vec![Twist::default(); nb],
             res: vec![0.0; m],
             dl: vec![0.0; m],
             diag: vec![1.0; m],
             work: [vec![0.0; m], vec![0.0; m], vec![0.0; m], vec![0.0; m]],
             tol: 0.0,
             rtol: tolerance,
+
             lints: 0,
             newton_total: 0,
             newton_max: 0,
@@ -390,10 +393,10 @@ impl Natural {
             s.epsilon = epsilon.unwrap_or_else(|| s.e.iter().copied().fold(0.0, f64::max));
             // response to λ⁰
             s.response(layout, 0, &s.lambda.clone());
-            for p in 0..nb {
-                s.resp[p] = Twist {
-                    v: -s.nodes[p].acc.v,
-                    w: -s.nodes[p].acc.w,
+            for n in s.nodes.iter_mut() {
+                n.resp = Twist {
+                    v: -n.acc.v,
+                    w: -n.acc.w,
                 };
             }
         }
@@ -407,10 +410,10 @@ impl Natural {
             vel: vel0.clone(),
         };
         for i in 0..nb {
-            let p = s.tree.pos[i];
+            let n = &s.nodes[s.tree.pos[i]];
             let a = Twist {
-                v: s.acc_free[p].v + s.resp[p].v,
-                w: s.acc_free[p].w + s.resp[p].w,
+                v: n.acc_free.v + n.resp.v,
+                w: n.acc_free.w + n.resp.w,
             };
             seq_b.vel[i].v = vel0[i].v - a.v * (h / 2.0);
             seq_b.vel[i].w = vel0[i].w - a.w * (h / 2.0);
@@ -419,6 +422,10 @@ impl Natural {
             seq_a.pose[i] = common::rotate_body(&pose0[i], dr, phi);
         }
         s.project_positions(sys, &mut seq_a.pose);
+        // Pass A of the first half step: sequence B at t0 (lagged velocities), Ȧq̇ and the
+        // gyroscopic term at the synchronous velocities (sequence A's, at t0).
+        sys.applied(t0, &seq_b.pose, &seq_b.vel, &mut s.applied);
+        s.forces_a0(layout, 0, &seq_a.vel);
         s.seq = [seq_b, seq_a];
         s.x = 0;
         s.cur = 0;
@@ -464,7 +471,13 @@ impl Natural {
         let mut x = vec![0.0; nc];
         let solver = Solver { tree: &self.tree };
         let max_iter = (10 * nc).max(100) as u32;
-        solver.pcg_reduced(&mut self.nodes, k, pc, &b, &mut x, rtol, max_iter)
+        // the operator overwrites the body forces of the next half step: keep them
+        let f: Vec<Wrench> = self.nodes.iter().map(|n| n.f).collect();
+        let st = solver.pcg_reduced(&mut self.nodes, k, pc, &b, &mut x, rtol, max_iter);
+        for (n, f) in self.nodes.iter_mut().zip(f) {
+            n.f = f;
+        }
+        st
     }
 
     /// Set the smallest level size run in parallel (for measurements).
@@ -562,9 +575,67 @@ impl Natural {
         }
     }
 
-    /// Factor at `kin[k]`, then the accelerations without cut forces into `acc_free`:
-    /// `Ȧq̇` with the velocities `vs` (synchronous), forces at `(pose, vl)` (`vl`: the lagged
-    /// velocities damping forces use) with the gyroscopic term at `vs`.
+    /// Pass A (root → leaf): the velocity-product accelerations `Node::a0 = Ȧq̇` with the
+    /// synchronous velocities `vs`, and the body forces
+    /// `Node::f = F − ω × Jω − M a0` (`F` in `self.applied`, gyroscopic term at `vs`).
+    fn forces_a0(&mut self, layout: &Layout, k: usize, vs: &[Twist]) {
+        let tree = &self.tree;
+        let applied = &self.applied;
+        tree.sched
+            .levels(&mut self.nodes, false, &|start, br: &mut [Node], view| {
+                for i in 0..br.len() {
+                    let l = &tree.links[start + i];
+                    let a0 = if l.joint == NONE {
+                        Twist::default()
+                    } else {
+                        let (up, a0p) = if l.parent == NONE {
+                            (Twist::default(), Twist::default())
+                        } else {
+                            let a0p = if i > 0 {
+                                br[i - 1].a0
+                            } else {
+                                view.get(l.parent).a0
+                            };
+                            (vs[tree.links[l.parent].body], a0p)
+                        };
+                        let kin = &br[i].kin[k];
+                        let uc = vs[l.body];
+                        let rates = kin.rates(&up, &uc);
+                        let kap = kin.kappa(&up, &uc, &rates);
+                        let tr = kin.transport(&a0p);
+                        Twist {
+                            v: tr.v + kap.v,
+                            w: tr.w + kap.w,
+                        }
+                    };
+                    let n = &mut br[i];
+                    n.a0 = a0;
+                    let ma0 = n.mass_mul(&a0);
+                    let b = l.body;
+                    n.f = Wrench {
+                        f: applied[b].f - ma0.f,
+                        t: applied[b].t - gyro(&layout.mass[b], &vs[b].w) - ma0.t,
+                    };
+                }
+            });
+    }
+
+    /// Pass B (leaf → root): the factorization at `kin[k]` fused with the backward half of
+    /// the free solve (body forces `Node::f` from pass A).
+    fn factor_free(&mut self, k: usize) -> Result<(), StepError> {
+        let solver = Solver { tree: &self.tree };
+        if let Some(p) = solver.factor_backward(&mut self.nodes, k, true, false) {
+            return Err(StepError::Singular {
+                what: "reduced mass AᵀMA (natural partitioning)",
+                row: self.tree.links[p].off,
+            });
+        }
+        Ok(())
+    }
+
+    /// The accelerations without cut forces into `Node::acc_free` (forces at `(pose, vl)`:
+    /// `vl` the lagged velocities damping uses; gyroscopic term and `Ȧq̇` at the synchronous
+    /// `vs`): passes A and B and the forward half of the solve.
     fn free_accelerations<S: System>(
         &mut self,
         sys: &S,
@@ -574,64 +645,17 @@ impl Natural {
         vl: &[Twist],
         vs: &[Twist],
     ) -> Result<(), StepError> {
-        let layout = sys.layout();
-        let solver = Solver { tree: &self.tree };
-        if let Some(p) = solver.factor(&mut self.nodes, k) {
-            return Err(StepError::Singular {
-                what: "reduced mass AᵀMA (natural partitioning)",
-                row: self.tree.links[p].off,
-            });
-        }
         sys.applied(t, pose, vl, &mut self.applied);
-        let tree = &self.tree;
-        let applied = &self.applied;
-        // Ȧq̇ root → leaf (a0), then f = F − ω×Jω − M a0 per body.
-        tree.sched
-            .levels(&mut self.nodes, false, &|start, br: &mut [Node], view| {
-                for i in 0..br.len() {
-                    let l = &tree.links[start + i];
-                    if l.joint == NONE {
-                        br[i].a0 = Twist::default();
-                        continue;
-                    }
-                    let (up, a0p) = if l.parent == NONE {
-                        (Twist::default(), Twist::default())
-                    } else {
-                        let a0p = if i > 0 {
-                            br[i - 1].a0
-                        } else {
-                            view.get(l.parent).a0
-                        };
-                        (vs[tree.links[l.parent].body], a0p)
-                    };
-                    let n = &mut br[i];
-                    let uc = vs[l.body];
-                    let kin = &n.kin[k];
-                    let rates = kin.rates(&up, &uc);
-                    let kap = kin.kappa(&up, &uc, &rates);
-                    let tr = kin.transport(&a0p);
-                    n.a0 = Twist {
-                        v: tr.v + kap.v,
-                        w: tr.w + kap.w,
-                    };
-                }
-            });
-        tree.sched.nodes(&mut self.nodes, &|p, n: &mut Node| {
-            let b = tree.links[p].body;
-            let ma0 = n.mass_mul(&n.a0);
-            let mp = &layout.mass[b];
-            n.f = Wrench {
-                f: applied[b].f - ma0.f,
-                t: applied[b].t - gyro(mp, &vs[b].w) - ma0.t,
-            };
-        });
-        solver.solve(&mut self.nodes, k, true, false);
-        for (p, n) in self.nodes.iter().enumerate() {
-            self.acc_free[p] = Twist {
+        self.forces_a0(sys.layout(), k, vs);
+        self.factor_free(k)?;
+        let solver = Solver { tree: &self.tree };
+        solver.forward_solve(&mut self.nodes, k);
+        self.tree.sched.nodes(&mut self.nodes, &|_, n: &mut Node| {
+            n.acc_free = Twist {
                 v: n.a0.v + n.acc.v,
                 w: n.a0.w + n.acc.w,
             };
-        }
+        });
         Ok(())
     }
 
@@ -652,196 +676,289 @@ impl Natural {
         );
     }
 
-    /// Advance sequence `x` by h with the accelerations `acc_free + resp` into `trial`,
-    /// then project positions onto the tree and velocities with `kin[kn]`.
-    fn cint_trial<S: System>(&mut self, sys: &S, x: usize, kn: usize) {
+    /// The coordinate update of sequence `x` by h into `self.trial`, with the constraint
+    /// correction of SHAKE (see the module doc), in three sweeps:
+    ///
+    /// - C (root → leaf): optionally the forward half of the free solve (`solve`:
+    ///   `acc_free = a0 + A x`); the explicit update with `acc_free + resp` (velocities to
+    ///   τ + h/2, positions to τ + h, Cayley update); the geometric correction `δq_geo` that
+    ///   puts each child back on its joint (the parent already corrected);
+    /// - D (leaf → root): the backward half of `(AᵀMA)⁻¹AᵀM δq_geo` (factorization at τ);
+    /// - E (root → leaf): its forward half, the M-orthogonal correction
+    ///   `δq = δq_geo − A(AᵀMA)⁻¹AᵀM δq_geo` (along `M⁻¹Bᵀ(τ)`, the direction of the
+    ///   constraint forces), applied to the position and, divided by h, to the velocity;
+    ///   a last geometric projection (the remaining `O(h⁴)` violation, to round-off);
+    ///   optionally the joint blocks `kin[kn]` at the other sequence's positions
+    ///   (`kin_next`); and pass A of the next half step (`Ȧq̇` with the new, synchronous
+    ///   velocities at `kin[kn]`, body forces from `self.applied`, which must hold the
+    ///   next half step's applied forces).
+    #[allow(clippy::too_many_arguments)]
+    fn advance_pass<S: System>(
+        &mut self,
+        sys: &S,
+        x: usize,
+        y: usize,
+        k: usize,
+        kn: usize,
+        solve: bool,
+        kin_next: bool,
+    ) {
         let h = self.h;
+        let tree = &self.tree;
         let src = &self.seq[x];
-        let (acc_free, resp, pos) = (&self.acc_free, &self.resp, &self.tree.pos);
-        let upd = |i: usize, pose: &mut Pose, vel: &mut Twist| {
-            let p = pos[i];
-            let a = Twist {
-                v: acc_free[p].v + resp[p].v,
-                w: acc_free[p].w + resp[p].w,
-            };
+        let pose_y = &self.seq[y].pose;
+        let applied = &self.applied;
+        let mass = &sys.layout().mass;
+        // The explicit update of body b with acceleration a: (pose, velocity).
+        let explicit = |b: usize, a: &Twist| {
             let v = Twist {
-                v: src.vel[i].v + a.v * h,
-                w: src.vel[i].w + a.w * h,
+                v: src.vel[b].v + a.v * h,
+                w: src.vel[b].w + a.w * h,
             };
-            let q = cayley_update(&src.pose[i].q, &v.w, h, false);
-            *pose = Pose {
-                r: src.pose[i].r + v.v * h,
-                q,
-                c: crate::math::rotation(&q),
-            };
-            *vel = v;
+            let q = cayley_update(&src.pose[b].q, &v.w, h, false);
+            (
+                Pose {
+                    r: src.pose[b].r + v.v * h,
+                    q,
+                    c: crate::math::rotation(&q),
+                },
+                v,
+            )
         };
+        // Sweep C.
+        tree.sched
+            .levels(&mut self.nodes, false, &|start, br: &mut [Node], view| {
+                let ground = Pose::default();
+                for i in 0..br.len() {
+                    let l = &tree.links[start + i];
+                    let (pacc, ppose) = match if i > 0 {
+                        Some(&br[i - 1])
+                    } else if l.parent == NONE {
+                        None
+                    } else {
+                        Some(view.get(l.parent))
+                    } {
+                        Some(p) => (p.acc, p.pose),
+                        None => (Twist::default(), ground),
+                    };
+                    let node = &mut br[i];
+                    if solve {
+                        let yv = if l.parent == NONE {
+                            Twist::default()
+                        } else {
+                            node.kin[k].transport(&pacc)
+                        };
+                        reduced::fwd(node, k, &yv);
+                        node.acc_free = Twist {
+                            v: node.a0.v + node.acc.v,
+                            w: node.a0.w + node.acc.w,
+                        };
+                    }
+                    let a = Twist {
+                        v: node.acc_free.v + node.resp.v,
+                        w: node.acc_free.w + node.resp.w,
+                    };
+                    let (raw, v) = explicit(l.body, &a);
+                    node.raw = v;
+                    node.pose = raw;
+                    if l.joint != NONE {
+                        sys.tree_joint_project(l.joint, l.child_is_b, &ppose, &mut node.pose);
+                    }
+                    // δq_geo as a twist-like displacement (world translation, body rotation)
+                    node.dq = displacement(&raw, &node.pose);
+                }
+            });
+        // Sweep D: backward half of (AᵀMA)⁻¹AᵀM δq_geo with the factorization at τ.
+        let solver = Solver { tree };
+        tree.sched
+            .nodes(&mut self.nodes, &|_, n: &mut Node| n.f = n.mass_mul(&n.dq));
+        solver.backward_solve(&mut self.nodes, k, true, false);
+        // Sweep E.
+        tree.sched
+            .levels(&mut self.nodes, false, &|start, br: &mut [Node], view| {
+                let ground = Pose::default();
+                for i in 0..br.len() {
+                    let l = &tree.links[start + i];
+                    let (pacc, ppose, ptw, pa0) = match if i > 0 {
+                        Some(&br[i - 1])
+                    } else if l.parent == NONE {
+                        None
+                    } else {
+                        Some(view.get(l.parent))
+                    } {
+                        Some(p) => (p.acc, p.pose, p.tw, p.a0),
+                        None => (Twist::default(), ground, Twist::default(), Twist::default()),
+                    };
+                    let node = &mut br[i];
+                    let b = l.body;
+                    // node.acc ← A (AᵀMA)⁻¹AᵀM δq_geo (the null-space part of δq_geo)
+                    let yv = if l.parent == NONE {
+                        Twist::default()
+                    } else {
+                        node.kin[k].transport(&pacc)
+                    };
+                    reduced::fwd(node, k, &yv);
+                    let d = Twist {
+                        v: node.dq.v - node.acc.v,
+                        w: node.dq.w - node.acc.w,
+                    };
+                    let a = Twist {
+                        v: node.acc_free.v + node.resp.v,
+                        w: node.acc_free.w + node.resp.w,
+                    };
+                    let (raw, _) = explicit(b, &a);
+                    node.pose = common::rotate_body(&raw, d.v, d.w);
+                    node.tw = Twist {
+                        v: node.raw.v + d.v / h,
+                        w: node.raw.w + d.w / h,
+                    };
+                    if l.joint == NONE {
+                        node.a0 = Twist::default();
+                        node.f = Wrench {
+                            f: applied[b].f,
+                            t: applied[b].t - gyro(&mass[b], &node.tw.w),
+                        };
+                        continue;
+                    }
+                    sys.tree_joint_project(l.joint, l.child_is_b, &ppose, &mut node.pose);
+                    if kin_next {
+                        let pp = if l.parent == NONE {
+                            &ground
+                        } else {
+                            &pose_y[tree.links[l.parent].body]
+                        };
+                        sys.tree_joint_kinematics(
+                            l.joint,
+                            l.child_is_b,
+                            pp,
+                            &pose_y[b],
+                            &mut node.kin[kn],
+                        );
+                    }
+                    // pass A of the next half step: the new velocities are synchronous
+                    // with the other sequence's positions (τ + h/2)
+                    let kin = &node.kin[kn];
+                    let up = if l.parent == NONE {
+                        Twist::default()
+                    } else {
+                        ptw
+                    };
+                    let rates = kin.rates(&up, &node.tw);
+                    let kap = kin.kappa(&up, &node.tw, &rates);
+                    let tr = kin.transport(&pa0);
+                    node.a0 = Twist {
+                        v: tr.v + kap.v,
+                        w: tr.w + kap.w,
+                    };
+                    let ma0 = node.mass_mul(&node.a0);
+                    node.f = Wrench {
+                        f: applied[b].f - ma0.f,
+                        t: applied[b].t - gyro(&mass[b], &node.tw.w) - ma0.t,
+                    };
+                }
+            });
+        let (nodes, pos) = (&self.nodes, &tree.pos);
         let trial = &mut self.trial;
-        if trial.pose.len() >= self.tree.sched.par_min {
+        let put = |b: usize, p: &mut Pose, v: &mut Twist| {
+            let n = &nodes[pos[b]];
+            *p = n.pose;
+            *v = n.tw;
+        };
+        if trial.pose.len() >= tree.sched.par_min {
             use rayon::prelude::*;
             trial
                 .pose
                 .par_iter_mut()
                 .zip(trial.vel.par_iter_mut())
                 .enumerate()
-                .for_each(|(i, (p, v))| upd(i, p, v));
+                .for_each(|(b, (p, v))| put(b, p, v));
         } else {
-            for (i, (p, v)) in trial.pose.iter_mut().zip(trial.vel.iter_mut()).enumerate() {
-                upd(i, p, v);
+            for (b, (p, v)) in trial.pose.iter_mut().zip(trial.vel.iter_mut()).enumerate() {
+                put(b, p, v);
             }
         }
-        let mut trial = std::mem::replace(
-            &mut self.trial,
-            Seq {
-                pose: Vec::new(),
-                vel: Vec::new(),
-            },
-        );
-        self.project_positions(sys, &mut trial.pose);
-        self.project_velocities(kn, &mut trial.vel);
-        self.trial = trial;
     }
 
     /// One half step of sequence `x` at τ (the other sequence `y` has the synchronous
     /// velocities). Returns the PCG iterations made.
     fn advance<S: System>(&mut self, sys: &S, x: usize, y: usize) -> Result<u32, StepError> {
-        let layout = sys.layout();
         let (k, kn) = (self.cur, 1 - self.cur);
         let h = self.h;
-        // Blocks at the other sequence's positions (time τ + h/2): velocity projection now,
-        // dynamics at the next half step.
-        let pose_y = std::mem::take(&mut self.seq[y].pose);
-        self.kinematics(sys, kn, &pose_y);
-        self.seq[y].pose = pose_y;
-        let (pose_x, vel_x) = (
-            std::mem::take(&mut self.seq[x].pose),
-            std::mem::take(&mut self.seq[x].vel),
-        );
-        let vel_y = std::mem::take(&mut self.seq[y].vel);
-        let r = self.free_accelerations(sys, k, self.tau, &pose_x, &vel_x, &vel_y);
         let has_cut = self.tree.cut_rows.iter().any(|&r| self.active[r]);
-        if has_cut && r.is_ok() {
-            sys.constraints(self.tau, &pose_x, &vel_y, Need::JAC, &mut self.ce);
-        }
-        self.seq[x].pose = pose_x;
-        self.seq[x].vel = vel_x;
-        self.seq[y].vel = vel_y;
-        r?;
+        // Pass B at τ (blocks kin[k] at the positions of x; forces from pass A, done at the
+        // end of the previous half step or at the start).
+        self.factor_free(k)?;
+        // Applied forces of the next half step: sequence y at τ + h/2 with its (lagged)
+        // velocities, for the fused pass A.
+        sys.applied(
+            self.tau + h / 2.0,
+            &self.seq[y].pose,
+            &self.seq[y].vel,
+            &mut self.applied,
+        );
         let mut pcg_iters = 0;
         if !has_cut {
-            self.resp.iter_mut().for_each(|r| *r = Twist::default());
-            self.cint_trial(sys, x, kn);
+            // Pass C: forward solve, coordinate update, projections, the blocks at the
+            // other sequence's positions (τ + h/2: velocity projection now, dynamics at the
+            // next half step) and the next pass A, all in one sweep.
+            self.tree.sched.nodes(&mut self.nodes, &|_, n: &mut Node| {
+                n.resp = Twist::default()
+            });
+            self.advance_pass(sys, x, y, k, kn, true, true);
         } else {
+            sys.constraints(
+                self.tau,
+                &self.seq[x].pose,
+                &self.seq[y].vel,
+                Need::JAC,
+                &mut self.ce,
+            );
+            let solver = Solver { tree: &self.tree };
+            solver.forward_solve(&mut self.nodes, k);
+            self.tree.sched.nodes(&mut self.nodes, &|_, n: &mut Node| {
+                n.acc_free = Twist {
+                    v: n.a0.v + n.acc.v,
+                    w: n.a0.w + n.acc.w,
+                };
+            });
+            let pose_y = std::mem::take(&mut self.seq[y].pose);
+            self.kinematics(sys, kn, &pose_y);
+            self.seq[y].pose = pose_y;
             // warm start λ(τ) ≈ 2λ(τ − h/2) − λ(τ − h)
             for (i, &r) in self.tree.cut_rows.iter().enumerate() {
                 let (l1, l0) = (self.lambda[i], self.lambda_prev[i]);
                 self.lambda_prev[i] = l1;
                 self.lambda[i] = if self.active[r] { 2.0 * l1 - l0 } else { 0.0 };
             }
-            let lam = std::mem::take(&mut self.lambda);
-            self.response(layout, k, &lam);
-            self.lambda = lam;
-            for (r, n) in self.resp.iter_mut().zip(&self.nodes) {
-                *r = Twist {
-                    v: -n.acc.v,
-                    w: -n.acc.w,
-                };
-            }
-            // Jacobi preconditioner: diag(E + h² B_c M⁻¹ B_cᵀ)
-            for (i, &r) in self.tree.cut_rows.iter().enumerate() {
-                self.diag[i] = if self.active[r] {
-                    self.e[i] + h * h * k_diag(layout, &self.ce.jac[r], r)
-                } else {
-                    1.0
-                };
-            }
-            let mut converged = false;
-            let mut newton = 0;
-            for it in 0..MAX_NEWTON {
-                newton = it;
-                self.cint_trial(sys, x, kn);
-                sys.constraints(
-                    self.tau + h,
-                    &self.trial.pose,
-                    &self.trial.vel,
-                    Need::PHI,
-                    &mut self.ce_trial,
-                );
-                let mut worst: f64 = 0.0;
-                for (i, &r) in self.tree.cut_rows.iter().enumerate() {
-                    if !self.active[r] {
-                        self.res[i] = 0.0;
-                        continue;
+            // Near a singular configuration (links that line up, lock-up) the default
+            // regularization can be too small for the iteration to converge: retry with it
+            // raised ×10³ at a time, as the staggered method does (each such step counted).
+            self.lambda_guess.copy_from_slice(&self.lambda);
+            let mut last = None;
+            let mut done = None;
+            for (attempt, scale) in [1.0, 1e3, 1e6, 1e9].into_iter().enumerate() {
+                if attempt > 0 {
+                    self.lambda.copy_from_slice(&self.lambda_guess);
+                }
+                for (ee, e) in self.e_eff.iter_mut().zip(&self.e) {
+                    *ee = e * scale;
+                }
+                match self.lint(sys, x, y, k, kn) {
+                    Ok(r) => {
+                        if attempt > 0 {
+                            self.regularized_steps += 1;
+                        }
+                        done = Some(r);
+                        break;
                     }
-                    let phi = if layout.row_kind[r] == RowKind::Holonomic {
-                        self.ce_trial.phi[r]
-                    } else {
-                        let (a, b) = layout.row_bodies(r);
-                        let bu = a.map_or(0.0, |a| dot6(&self.ce.jac[r].a, &self.trial.vel[a]))
-                            + b.map_or(0.0, |b| dot6(&self.ce.jac[r].b, &self.trial.vel[b]));
-                        h * 0.5 * (self.ce_trial.phi[r] + bu + self.ce.bias[r])
-                    };
-                    self.res[i] = phi - self.e[i] * (self.lambda[i] - self.lambda0[i]);
-                    worst = worst.max(self.res[i].abs());
-                }
-                if worst <= self.tol {
-                    converged = true;
-                    break;
-                }
-                // Newton correction: S Δλ = res by PCG, accumulating the body response.
-                self.dresp.iter_mut().for_each(|d| *d = Twist::default());
-                let stats = {
-                    let mut ops = CutOps {
-                        solver: Solver { tree: &self.tree },
-                        nodes: &mut self.nodes,
-                        k,
-                        layout,
-                        rows: &self.tree.cut_rows,
-                        jac: &self.ce.jac,
-                        pos: &self.tree.pos,
-                        active: &self.active,
-                        e: &self.e,
-                        diag: &self.diag,
-                        h2: h * h,
-                        dresp: &mut self.dresp,
-                    };
-                    let max_it = (4 * self.res.len()).max(50) as u32;
-                    pcg(
-                        &mut ops,
-                        &self.res,
-                        &mut self.dl,
-                        &mut self.work,
-                        self.rtol,
-                        0.1 * self.tol,
-                        max_it,
-                    )
-                };
-                pcg_iters += stats.iterations;
-                self.pcg_total += stats.iterations as u64;
-                self.pcg_solves += 1;
-                self.pcg_max = self.pcg_max.max(stats.iterations);
-                if !stats.converged && stats.relative_residual > 1e-3 {
-                    return Err(StepError::NoConvergence {
-                        what: "cut-joint PCG (natural partitioning)",
-                        iterations: stats.iterations,
-                        residual: stats.relative_residual,
-                    });
-                }
-                for i in 0..self.dl.len() {
-                    self.lambda[i] += self.dl[i];
-                }
-                for p in 0..self.resp.len() {
-                    self.resp[p].v -= self.dresp[p].v;
-                    self.resp[p].w -= self.dresp[p].w;
+                    Err(e @ StepError::NoConvergence { .. }) => last = Some(e),
+                    Err(e) => return Err(e),
                 }
             }
-            if !converged {
-                return Err(StepError::NoConvergence {
-                    what: "natural-partitioning cut-joint Newton iteration",
-                    iterations: MAX_NEWTON,
-                    residual: self.res.iter().fold(0.0, |a: f64, b| a.max(b.abs())),
-                });
-            }
+            let Some((newton, iters)) = done else {
+                return Err(last.expect("at least one attempt"));
+            };
+            pcg_iters += iters;
             self.tau_lambda = self.tau;
             self.lints += 1;
             self.newton_total += newton as u64;
@@ -850,6 +967,130 @@ impl Natural {
         std::mem::swap(&mut self.seq[x], &mut self.trial);
         self.cur = kn;
         Ok(pcg_iters)
+    }
+
+    /// The staggered stabilization of the cut rows at τ (exact-integral form, regularization
+    /// `self.e_eff`): Newton iterations on `λ_c` until the positions after the coordinate
+    /// update satisfy `Φ_c = E(λ_c − λ_c⁰)`, each correction from PCG on
+    /// `S = E + h² (B_c A)(AᵀMA)⁻¹(B_c A)ᵀ`. Leaves the advanced sequence in `self.trial`.
+    /// Returns (Newton iterations, PCG iterations).
+    fn lint<S: System>(
+        &mut self,
+        sys: &S,
+        x: usize,
+        y: usize,
+        k: usize,
+        kn: usize,
+    ) -> Result<(u32, u32), StepError> {
+        let layout = sys.layout();
+        let h = self.h;
+        let mut pcg_iters = 0;
+        let lam = std::mem::take(&mut self.lambda);
+        self.response(layout, k, &lam);
+        self.lambda = lam;
+        for n in self.nodes.iter_mut() {
+            n.resp = Twist {
+                v: -n.acc.v,
+                w: -n.acc.w,
+            };
+        }
+        // Jacobi preconditioner: diag(E + h² B_c M⁻¹ B_cᵀ)
+        for (i, &r) in self.tree.cut_rows.iter().enumerate() {
+            self.diag[i] = if self.active[r] {
+                self.e_eff[i] + h * h * k_diag(layout, &self.ce.jac[r], r)
+            } else {
+                1.0
+            };
+        }
+        let mut converged = false;
+        let mut newton = 0;
+        for it in 0..MAX_NEWTON {
+            newton = it;
+            self.advance_pass(sys, x, y, k, kn, false, false);
+            sys.constraints(
+                self.tau + h,
+                &self.trial.pose,
+                &self.trial.vel,
+                Need::PHI,
+                &mut self.ce_trial,
+            );
+            let mut worst: f64 = 0.0;
+            for (i, &r) in self.tree.cut_rows.iter().enumerate() {
+                if !self.active[r] {
+                    self.res[i] = 0.0;
+                    continue;
+                }
+                let phi = if layout.row_kind[r] == RowKind::Holonomic {
+                    self.ce_trial.phi[r]
+                } else {
+                    let (a, b) = layout.row_bodies(r);
+                    let bu = a.map_or(0.0, |a| dot6(&self.ce.jac[r].a, &self.trial.vel[a]))
+                        + b.map_or(0.0, |b| dot6(&self.ce.jac[r].b, &self.trial.vel[b]));
+                    h * 0.5 * (self.ce_trial.phi[r] + bu + self.ce.bias[r])
+                };
+                self.res[i] = phi - self.e_eff[i] * (self.lambda[i] - self.lambda0[i]);
+                worst = worst.max(self.res[i].abs());
+            }
+            if worst <= self.tol {
+                converged = true;
+                break;
+            }
+            // Newton correction: S Δλ = res by PCG, accumulating the body response.
+            self.nodes
+                .iter_mut()
+                .for_each(|n| n.dresp = Twist::default());
+            let stats = {
+                let mut ops = CutOps {
+                    solver: Solver { tree: &self.tree },
+                    nodes: &mut self.nodes,
+                    k,
+                    layout,
+                    rows: &self.tree.cut_rows,
+                    jac: &self.ce.jac,
+                    pos: &self.tree.pos,
+                    active: &self.active,
+                    e: &self.e_eff,
+                    diag: &self.diag,
+                    h2: h * h,
+                };
+                let max_it = (4 * self.res.len()).max(50) as u32;
+                pcg(
+                    &mut ops,
+                    &self.res,
+                    &mut self.dl,
+                    &mut self.work,
+                    self.rtol,
+                    0.1 * self.tol,
+                    max_it,
+                )
+            };
+            pcg_iters += stats.iterations;
+            self.pcg_total += stats.iterations as u64;
+            self.pcg_solves += 1;
+            self.pcg_max = self.pcg_max.max(stats.iterations);
+            if !stats.converged && stats.relative_residual > 1e-3 {
+                return Err(StepError::NoConvergence {
+                    what: "cut-joint PCG (natural partitioning)",
+                    iterations: stats.iterations,
+                    residual: stats.relative_residual,
+                });
+            }
+            for i in 0..self.dl.len() {
+                self.lambda[i] += self.dl[i];
+            }
+            for n in self.nodes.iter_mut() {
+                n.resp.v -= n.dresp.v;
+                n.resp.w -= n.dresp.w;
+            }
+        }
+        if !converged {
+            return Err(StepError::NoConvergence {
+                what: "natural-partitioning cut-joint Newton iteration",
+                iterations: MAX_NEWTON,
+                residual: self.res.iter().fold(0.0, |a: f64, b| a.max(b.abs())),
+            });
+        }
+        Ok((newton, pcg_iters))
     }
 
     fn check_locks<S: System>(&mut self, sys: &S) {
@@ -871,6 +1112,18 @@ impl Natural {
             }
             self.active.copy_from_slice(&self.next_active);
         }
+    }
+}
+
+/// The small displacement taking pose `a` to pose `b`: world translation and body-frame
+/// rotation vector (`b = a ⊕ d` to second order), the coordinates dual to a [`Twist`].
+#[inline]
+fn displacement(a: &Pose, b: &Pose) -> Twist {
+    let dq = crate::math::qmul(&crate::math::qconj(&a.q), &b.q);
+    let s = if dq.w < 0.0 { -2.0 } else { 2.0 };
+    Twist {
+        v: b.r - a.r,
+        w: Vector3::new(dq.i, dq.j, dq.k) * s,
     }
 }
 
@@ -964,6 +1217,7 @@ impl<S: System> Integrator<S> for Natural {
                 self.pcg_total as f64 / self.pcg_solves.max(1) as f64,
             ));
             v.push(("pcg_iterations_max", self.pcg_max as f64));
+            v.push(("regularized_steps", self.regularized_steps as f64));
         }
         v
     }
@@ -1192,7 +1446,7 @@ mod tests {
                         t: q[b].t - fl[b].t,
                     },
                 );
-                let got = s.acc_free[s.tree.pos[b]];
+                let got = s.nodes[s.tree.pos[b]].acc_free;
                 scale = scale.max(want.v.norm()).max(want.w.norm());
                 err = err
                     .max((got.v - want.v).norm())

@@ -53,7 +53,8 @@ pub struct Node {
     pub j: Matrix3<f64>,
     /// Joint blocks at two configurations (the integrator alternates them).
     pub kin: [TreeJointKin; 2],
-    /// `P_c` handed to the parent.
+    /// `P_c` handed to the parent (leaf → root factorization); the composite inertia
+    /// for block-Jacobi.
     pub pm: Matrix6<f64>,
     /// Columns of `W = I S L⁻ᵀ` (first `dof`).
     pub w: [[f64; 6]; 6],
@@ -71,10 +72,20 @@ pub struct Node {
     pub x: [f64; 6],
     /// Solution: the body's `(A x)` (acceleration).
     pub acc: Twist,
-    /// Scratch twist (velocity-product accelerations, projected velocities, ...).
+    /// The velocity-product acceleration `Ȧq̇` (root → leaf sum of `κ`).
     pub a0: Twist,
-    /// Scratch twist.
+    /// Acceleration without cut forces.
+    pub acc_free: Twist,
+    /// Acceleration response to the cut forces.
+    pub resp: Twist,
+    /// Accumulator of a response increment.
+    pub dresp: Twist,
+    /// Scratch twist (projected velocity).
     pub tw: Twist,
+    /// Scratch twist (unprojected velocity).
+    pub raw: Twist,
+    /// Scratch displacement (position correction).
+    pub dq: Twist,
     /// Scratch rates.
     pub rates: [f64; 6],
     /// Scratch pose.
@@ -98,7 +109,12 @@ impl Node {
             x: [0.0; 6],
             acc: Twist::default(),
             a0: Twist::default(),
+            acc_free: Twist::default(),
+            resp: Twist::default(),
+            dresp: Twist::default(),
             tw: Twist::default(),
+            raw: Twist::default(),
+            dq: Twist::default(),
             rates: [0.0; 6],
             pose: crate::system::Pose::default(),
         }
@@ -111,6 +127,17 @@ impl Node {
             f: u.v * self.m,
             t: self.j * u.w,
         }
+    }
+
+    /// The body's mass matrix `diag(m I, J)`.
+    #[inline]
+    fn mass6(&self) -> Matrix6<f64> {
+        let mut ia = Matrix6::zeros();
+        for d in 0..3 {
+            ia[(d, d)] = self.m;
+        }
+        ia.fixed_view_mut::<3, 3>(3, 3).copy_from(&self.j);
+        ia
     }
 }
 
@@ -133,28 +160,24 @@ fn wrench6(w: &Wrench) -> [f64; 6] {
 }
 
 #[inline]
+fn twist6(t: &Twist) -> [f64; 6] {
+    [t.v.x, t.v.y, t.v.z, t.w.x, t.w.y, t.w.z]
+}
+
+#[inline]
 fn add_wrench(a: &mut Wrench, b: &Wrench) {
     a.f += b.f;
     a.t += b.t;
 }
 
-#[inline]
-fn twist_add(a: &Twist, b: &Twist) -> Twist {
-    Twist {
-        v: a.v + b.v,
-        w: a.w + b.w,
-    }
-}
-
-/// `Xᵀ P X` for `X = [[I, xv], [0, xw]]`, by 3 × 3 blocks.
+/// `Xᵀ P X` for `X = [[I, xv], [0, xw]]`, by 3 × 3 blocks (`P` symmetric).
 #[inline]
 fn xtpx(k: &TreeJointKin, p: &Matrix6<f64>) -> Matrix6<f64> {
     let a = p.fixed_view::<3, 3>(0, 0).into_owned();
     let b = p.fixed_view::<3, 3>(0, 3).into_owned();
-    let c = p.fixed_view::<3, 3>(3, 0).into_owned();
     let d = p.fixed_view::<3, 3>(3, 3).into_owned();
     let t1 = a * k.xv + b * k.xw;
-    let br = k.xv.transpose() * t1 + k.xw.transpose() * (c * k.xv + d * k.xw);
+    let br = k.xv.transpose() * t1 + k.xw.transpose() * (b.transpose() * k.xv + d * k.xw);
     let mut o = Matrix6::zeros();
     o.fixed_view_mut::<3, 3>(0, 0).copy_from(&a);
     o.fixed_view_mut::<3, 3>(0, 3).copy_from(&t1);
@@ -163,11 +186,11 @@ fn xtpx(k: &TreeJointKin, p: &Matrix6<f64>) -> Matrix6<f64> {
     o
 }
 
-/// `L⁻¹ g` (forward substitution, `n × n` lower `l`).
+/// `L⁻¹ g` (forward substitution, `N × N` lower `l`).
 #[inline]
-fn lsolve(l: &[[f64; 6]; 6], n: usize, g: &[f64; 6]) -> [f64; 6] {
+fn lsolve<const N: usize>(l: &[[f64; 6]; 6], g: &[f64; 6]) -> [f64; 6] {
     let mut y = [0.0; 6];
-    for i in 0..n {
+    for i in 0..N {
         let mut s = g[i];
         for k in 0..i {
             s -= l[i][k] * y[k];
@@ -179,11 +202,11 @@ fn lsolve(l: &[[f64; 6]; 6], n: usize, g: &[f64; 6]) -> [f64; 6] {
 
 /// `L⁻ᵀ g` (back substitution).
 #[inline]
-fn ltsolve(l: &[[f64; 6]; 6], n: usize, g: &[f64; 6]) -> [f64; 6] {
+fn ltsolve<const N: usize>(l: &[[f64; 6]; 6], g: &[f64; 6]) -> [f64; 6] {
     let mut x = [0.0; 6];
-    for i in (0..n).rev() {
+    for i in (0..N).rev() {
         let mut s = g[i];
-        for k in i + 1..n {
+        for k in i + 1..N {
             s -= l[k][i] * x[k];
         }
         x[i] = s / l[i][i];
@@ -191,29 +214,44 @@ fn ltsolve(l: &[[f64; 6]; 6], n: usize, g: &[f64; 6]) -> [f64; 6] {
     x
 }
 
-/// Factor one position given its articulated inertia `ia` (writes `l`, `w`, `pm`).
+/// Dispatch on the number of rates (0..=6) to a const-generic kernel.
+macro_rules! by_dof {
+    ($n:expr, $f:ident ( $($a:expr),* )) => {
+        match $n {
+            0 => $f::<0>($($a),*),
+            1 => $f::<1>($($a),*),
+            2 => $f::<2>($($a),*),
+            3 => $f::<3>($($a),*),
+            4 => $f::<4>($($a),*),
+            5 => $f::<5>($($a),*),
+            _ => $f::<6>($($a),*),
+        }
+    };
+}
+
+/// Factor one position given its articulated inertia `ia`: `l`, `w` and `pm = P`.
 /// Returns false when `D = SᵀIS` is not positive definite.
 #[inline]
-fn factor_node(node: &mut Node, k: usize, ia: &Matrix6<f64>) -> bool {
-    let kin = &node.kin[k];
-    let n = kin.dof;
-    // U = I S (columns)
+fn factor_n<const N: usize>(node: &mut Node, k: usize, ia: &Matrix6<f64>) -> bool {
+    let s = &node.kin[k].s;
+    // U = I S (columns), then D = Sᵀ U factorized in place into l
     let mut u = [[0.0; 6]; 6];
-    for c in 0..n {
-        let s = &kin.s[c];
+    for c in 0..N {
         for i in 0..6 {
             let mut acc = 0.0;
             for j in 0..6 {
-                acc += ia[(i, j)] * s[j];
+                acc += ia[(i, j)] * s[c][j];
             }
             u[c][i] = acc;
         }
     }
-    // D = Sᵀ U, Cholesky in place
-    let mut l = [[0.0; 6]; 6];
-    for i in 0..n {
+    let l = &mut node.l;
+    for i in 0..N {
         for j in 0..=i {
-            let mut d: f64 = (0..6).map(|r| kin.s[i][r] * u[j][r]).sum();
+            let mut d = 0.0;
+            for r in 0..6 {
+                d += s[i][r] * u[j][r];
+            }
             for q in 0..j {
                 d -= l[i][q] * l[j][q];
             }
@@ -227,29 +265,102 @@ fn factor_node(node: &mut Node, k: usize, ia: &Matrix6<f64>) -> bool {
             }
         }
     }
-    // W = U L⁻ᵀ: column c of W solves L-row recursion W_c = (U_c − Σ_{q<c} W_q l[c][q]) / l[c][c]
-    let mut w = [[0.0; 6]; 6];
-    for c in 0..n {
+    // W = U L⁻ᵀ
+    let w = &mut node.w;
+    for c in 0..N {
+        let inv = 1.0 / l[c][c];
         for i in 0..6 {
-            let mut s = u[c][i];
+            let mut acc = u[c][i];
             for q in 0..c {
-                s -= w[q][i] * l[c][q];
+                acc -= w[q][i] * l[c][q];
             }
-            w[c][i] = s / l[c][c];
+            w[c][i] = acc * inv;
         }
     }
-    let mut p = *ia;
-    for wc in w.iter().take(n) {
+    // P = I − W Wᵀ
+    let p = &mut node.pm;
+    for j in 0..6 {
         for i in 0..6 {
-            for j in 0..6 {
-                p[(i, j)] -= wc[i] * wc[j];
+            let mut acc = ia[(i, j)];
+            for c in 0..N {
+                acc -= w[c][i] * w[c][j];
             }
+            p[(i, j)] = acc;
         }
     }
-    node.l = l;
-    node.w = w;
-    node.pm = p;
     true
+}
+
+#[inline]
+fn factor_node(node: &mut Node, k: usize, ia: &Matrix6<f64>) -> bool {
+    by_dof!(node.kin[k].dof, factor_n(node, k, ia))
+}
+
+/// Backward step of the solve at one position: `g = b + Sᵀβ`, `h = L⁻¹g`,
+/// `z = β − W h`.
+#[inline]
+fn back_n<const N: usize>(node: &mut Node, k: usize, beta: &Wrench, with_b: bool) {
+    let s = &node.kin[k].s;
+    let b6 = wrench6(beta);
+    let mut g = [0.0; 6];
+    for q in 0..N {
+        let mut acc = if with_b { node.bq[q] } else { 0.0 };
+        for r in 0..6 {
+            acc += s[q][r] * b6[r];
+        }
+        g[q] = acc;
+    }
+    let hh = lsolve::<N>(&node.l, &g);
+    let mut z = b6;
+    for q in 0..N {
+        for r in 0..6 {
+            z[r] -= node.w[q][r] * hh[q];
+        }
+    }
+    node.hh = hh;
+    node.z = Wrench {
+        f: Vector3::new(z[0], z[1], z[2]),
+        t: Vector3::new(z[3], z[4], z[5]),
+    };
+}
+
+#[inline]
+fn back_node(node: &mut Node, k: usize, beta: &Wrench, with_b: bool) {
+    by_dof!(node.kin[k].dof, back_n(node, k, beta, with_b))
+}
+
+/// Forward step of the solve at one position: `x = L⁻ᵀ(h − Wᵀy)`, `acc = y + S x`.
+#[inline]
+fn fwd_n<const N: usize>(node: &mut Node, k: usize, y: &Twist) {
+    let y6 = twist6(y);
+    let mut rhs = node.hh;
+    for q in 0..N {
+        let mut acc = 0.0;
+        for r in 0..6 {
+            acc += node.w[q][r] * y6[r];
+        }
+        rhs[q] -= acc;
+    }
+    let x = ltsolve::<N>(&node.l, &rhs);
+    let s = &node.kin[k].s;
+    let mut a = y6;
+    for q in 0..N {
+        for r in 0..6 {
+            a[r] += s[q][r] * x[q];
+        }
+    }
+    node.x = x;
+    node.acc = Twist {
+        v: Vector3::new(a[0], a[1], a[2]),
+        w: Vector3::new(a[3], a[4], a[5]),
+    };
+}
+
+/// The forward step of the tree-exact solve at one position, given the transported
+/// parent acceleration `y = X u_p`: `x = L⁻ᵀ(h − Wᵀy)`, `Node::acc = y + S x`.
+#[inline]
+pub fn fwd(node: &mut Node, k: usize, y: &Twist) {
+    by_dof!(node.kin[k].dof, fwd_n(node, k, y))
 }
 
 /// Which preconditioner [`Solver::pcg_reduced`] uses.
@@ -367,7 +478,7 @@ pub struct Solver<'t> {
 impl Solver<'_> {
     /// The parent's entry of position `start + i` (`None` for ground/free roots).
     #[inline]
-    fn parent<'a>(
+    pub fn parent<'a>(
         &self,
         i: usize,
         start: usize,
@@ -382,99 +493,104 @@ impl Solver<'_> {
         }
     }
 
-    /// Factor `AᵀMA` at the joint blocks `kin[k]` (leaf → root). Returns the first
-    /// position whose `D = SᵀIS` is not positive definite, if any.
-    pub fn factor(&self, nodes: &mut [Node], k: usize) -> Option<usize> {
-        let bad = std::sync::atomic::AtomicUsize::new(NONE);
+    /// Leaf → root over the tree: at each position `f(node, children)` where the children
+    /// (already processed) are visited by the callback's second argument.
+    #[inline]
+    fn up<F>(&self, nodes: &mut [Node], f: &F)
+    where
+        F: Fn(&mut Node, usize, &mut dyn FnMut(&mut dyn FnMut(&Node))) + Sync,
+    {
         self.tree
             .sched
             .levels(nodes, true, &|start, br: &mut [Node], view| {
                 for i in (0..br.len()).rev() {
                     let (head, tail) = br.split_at_mut(i + 1);
                     let node = &mut head[i];
-                    let mut ia = Matrix6::zeros();
-                    for d in 0..3 {
-                        ia[(d, d)] = node.m;
-                    }
-                    ia.fixed_view_mut::<3, 3>(3, 3).copy_from(&node.j);
-                    let mut kids = |c: &Node| ia += xtpx(&c.kin[k], &c.pm);
-                    if !tail.is_empty() {
-                        kids(&tail[0]);
-                    } else {
-                        for &c in self.tree.children(start + i) {
-                            kids(view.get(c));
+                    let tail = &*tail;
+                    let p = start + i;
+                    let mut kids = |g: &mut dyn FnMut(&Node)| {
+                        if !tail.is_empty() {
+                            g(&tail[0]);
+                        } else {
+                            for &c in self.tree.children(p) {
+                                g(view.get(c));
+                            }
                         }
-                    }
-                    if !factor_node(node, k, &ia) {
-                        bad.fetch_min(start + i, std::sync::atomic::Ordering::Relaxed);
-                    }
+                    };
+                    f(node, p, &mut kids);
                 }
             });
+    }
+
+    /// Factor `AᵀMA` at the joint blocks `kin[k]` (leaf → root) and, when `with_f` or
+    /// `with_b`, run the backward half of the solve in the same sweep. Returns the first
+    /// position whose `D = SᵀIS` is not positive definite, if any.
+    pub fn factor_backward(
+        &self,
+        nodes: &mut [Node],
+        k: usize,
+        with_f: bool,
+        with_b: bool,
+    ) -> Option<usize> {
+        let bad = std::sync::atomic::AtomicUsize::new(NONE);
+        let solve = with_f || with_b;
+        self.up(nodes, &|node, p, kids| {
+            let mut ia = node.mass6();
+            let mut beta = if with_f { node.f } else { Wrench::default() };
+            kids(&mut |c: &Node| {
+                ia += xtpx(&c.kin[k], &c.pm);
+                if solve {
+                    add_wrench(&mut beta, &c.kin[k].transport_t(&c.z));
+                }
+            });
+            if !factor_node(node, k, &ia) {
+                bad.fetch_min(p, std::sync::atomic::Ordering::Relaxed);
+                return;
+            }
+            if solve {
+                back_node(node, k, &beta, with_b);
+            }
+        });
         let b = bad.into_inner();
         (b != NONE).then_some(b)
+    }
+
+    /// Factor `AᵀMA` at `kin[k]` only.
+    pub fn factor(&self, nodes: &mut [Node], k: usize) -> Option<usize> {
+        self.factor_backward(nodes, k, false, false)
+    }
+
+    /// Backward half of the solve with an existing factorization (inputs `Node::f` if
+    /// `with_f`, `Node::bq` if `with_b`).
+    pub fn backward_solve(&self, nodes: &mut [Node], k: usize, with_f: bool, with_b: bool) {
+        self.up(nodes, &|node, _, kids| {
+            let mut beta = if with_f { node.f } else { Wrench::default() };
+            kids(&mut |c: &Node| add_wrench(&mut beta, &c.kin[k].transport_t(&c.z)));
+            back_node(node, k, &beta, with_b);
+        });
+    }
+
+    /// Forward half of the solve: `Node::x` and `Node::acc = A x`.
+    pub fn forward_solve(&self, nodes: &mut [Node], k: usize) {
+        self.tree
+            .sched
+            .levels(nodes, false, &|start, br: &mut [Node], view| {
+                for i in 0..br.len() {
+                    let y = match self.parent(i, start, br, view) {
+                        Some(p) => br[i].kin[k].transport(&p.acc),
+                        None => Twist::default(),
+                    };
+                    fwd(&mut br[i], k, &y);
+                }
+            });
     }
 
     /// Solve `AᵀMA x = [b] + Aᵀ[f]` with the factorization of [`Solver::factor`]: the
     /// inputs are `Node::bq` (if `with_b`) and `Node::f` (if `with_f`); the outputs
     /// `Node::x` and `Node::acc = (A x)`.
     pub fn solve(&self, nodes: &mut [Node], k: usize, with_f: bool, with_b: bool) {
-        let sched = &self.tree.sched;
-        sched.levels(nodes, true, &|start, br: &mut [Node], view| {
-            for i in (0..br.len()).rev() {
-                let mut beta = if with_f { br[i].f } else { Wrench::default() };
-                {
-                    let tail = &br[i + 1..];
-                    let mut kid = |c: &Node| add_wrench(&mut beta, &c.kin[k].transport_t(&c.z));
-                    if !tail.is_empty() {
-                        kid(&tail[0]);
-                    } else {
-                        for &c in self.tree.children(start + i) {
-                            kid(view.get(c));
-                        }
-                    }
-                }
-                let node = &mut br[i];
-                let kin = &node.kin[k];
-                let n = kin.dof;
-                let mut g = [0.0; 6];
-                kin.s_t(&beta, &mut g);
-                if with_b {
-                    for q in 0..n {
-                        g[q] += node.bq[q];
-                    }
-                }
-                let hh = lsolve(&node.l, n, &g);
-                let mut z = wrench6(&beta);
-                for q in 0..n {
-                    for r in 0..6 {
-                        z[r] -= node.w[q][r] * hh[q];
-                    }
-                }
-                node.hh = hh;
-                node.z = Wrench {
-                    f: Vector3::new(z[0], z[1], z[2]),
-                    t: Vector3::new(z[3], z[4], z[5]),
-                };
-            }
-        });
-        sched.levels(nodes, false, &|start, br: &mut [Node], view| {
-            for i in 0..br.len() {
-                let y = match self.parent(i, start, br, view) {
-                    Some(p) => br_kin(&br[i], k).transport(&p.acc),
-                    None => Twist::default(),
-                };
-                let node = &mut br[i];
-                let n = node.kin[k].dof;
-                let y6 = [y.v.x, y.v.y, y.v.z, y.w.x, y.w.y, y.w.z];
-                let mut rhs = node.hh;
-                for q in 0..n {
-                    rhs[q] -= (0..6).map(|r| node.w[q][r] * y6[r]).sum::<f64>();
-                }
-                let x = ltsolve(&node.l, n, &rhs);
-                node.x = x;
-                node.acc = twist_add(&y, &node.kin[k].s_mul(&x));
-            }
-        });
+        self.backward_solve(nodes, k, with_f, with_b);
+        self.forward_solve(nodes, k);
     }
 
     /// `Node::acc = A x` for `x` in `Node::x` (root → leaf).
@@ -484,11 +600,15 @@ impl Solver<'_> {
             .levels(nodes, false, &|start, br: &mut [Node], view| {
                 for i in 0..br.len() {
                     let y = match self.parent(i, start, br, view) {
-                        Some(p) => br_kin(&br[i], k).transport(&p.acc),
+                        Some(p) => br[i].kin[k].transport(&p.acc),
                         None => Twist::default(),
                     };
                     let node = &mut br[i];
-                    node.acc = twist_add(&y, &node.kin[k].s_mul(&node.x));
+                    let s = node.kin[k].s_mul(&node.x);
+                    node.acc = Twist {
+                        v: y.v + s.v,
+                        w: y.w + s.w,
+                    };
                 }
             });
     }
@@ -496,29 +616,14 @@ impl Solver<'_> {
     /// `Node::x = Aᵀ f` for the body forces in `Node::f` (leaf → root; uses `Node::z`
     /// for the subtree forces).
     pub fn backward(&self, nodes: &mut [Node], k: usize) {
-        self.tree
-            .sched
-            .levels(nodes, true, &|start, br: &mut [Node], view| {
-                for i in (0..br.len()).rev() {
-                    let mut tot = br[i].f;
-                    {
-                        let tail = &br[i + 1..];
-                        let mut kid = |c: &Node| add_wrench(&mut tot, &c.kin[k].transport_t(&c.z));
-                        if !tail.is_empty() {
-                            kid(&tail[0]);
-                        } else {
-                            for &c in self.tree.children(start + i) {
-                                kid(view.get(c));
-                            }
-                        }
-                    }
-                    let node = &mut br[i];
-                    node.z = tot;
-                    let mut x = [0.0; 6];
-                    node.kin[k].s_t(&tot, &mut x);
-                    node.x = x;
-                }
-            });
+        self.up(nodes, &|node, _, kids| {
+            let mut tot = node.f;
+            kids(&mut |c: &Node| add_wrench(&mut tot, &c.kin[k].transport_t(&c.z)));
+            node.z = tot;
+            let mut x = [0.0; 6];
+            node.kin[k].s_t(&tot, &mut x);
+            node.x = x;
+        });
     }
 
     /// The operator `AᵀMA` matrix-free: `Node::x ← AᵀMA Node::x` (forward `A`, the
@@ -553,31 +658,14 @@ impl Solver<'_> {
     /// Block-Jacobi preconditioner data: the Cholesky factors of `S_cᵀ I^C_c S_c` (composite
     /// inertias), stored in `Node::l` (overwrites the factorization).
     pub fn factor_block_jacobi(&self, nodes: &mut [Node], k: usize) {
-        self.tree
-            .sched
-            .levels(nodes, true, &|start, br: &mut [Node], view| {
-                for i in (0..br.len()).rev() {
-                    let (head, tail) = br.split_at_mut(i + 1);
-                    let node = &mut head[i];
-                    let mut ic = Matrix6::zeros();
-                    for d in 0..3 {
-                        ic[(d, d)] = node.m;
-                    }
-                    ic.fixed_view_mut::<3, 3>(3, 3).copy_from(&node.j);
-                    let mut kids = |c: &Node| ic += xtpx(&c.kin[k], &c.pm);
-                    if !tail.is_empty() {
-                        kids(&tail[0]);
-                    } else {
-                        for &c in self.tree.children(start + i) {
-                            kids(view.get(c));
-                        }
-                    }
-                    // composite inertia handed up unchanged (no projection)
-                    let ok = factor_node(node, k, &ic);
-                    debug_assert!(ok);
-                    node.pm = ic;
-                }
-            });
+        self.up(nodes, &|node, _, kids| {
+            let mut ic = node.mass6();
+            kids(&mut |c: &Node| ic += xtpx(&c.kin[k], &c.pm));
+            let ok = factor_node(node, k, &ic);
+            debug_assert!(ok);
+            // the composite inertia is handed up unchanged (no projection)
+            node.pm = ic;
+        });
     }
 
     /// Solve `AᵀMA x = b` by PCG with preconditioner `pc` (for measurements and tests;
@@ -637,8 +725,9 @@ impl PcgOps for ReducedOps<'_, '_, '_> {
                 for (p, l) in s.tree.links.iter().enumerate() {
                     let mut g = [0.0; 6];
                     g[..l.dof].copy_from_slice(&r[l.off..l.off + l.dof]);
-                    let y = lsolve(&self.nodes[p].l, l.dof, &g);
-                    let x = ltsolve(&self.nodes[p].l, l.dof, &y);
+                    let lp = &self.nodes[p].l;
+                    let y = by_dof!(l.dof, lsolve(lp, &g));
+                    let x = by_dof!(l.dof, ltsolve(lp, &y));
                     z[l.off..l.off + l.dof].copy_from_slice(&x[..l.dof]);
                 }
             }
@@ -649,9 +738,4 @@ impl PcgOps for ReducedOps<'_, '_, '_> {
             }
         }
     }
-}
-
-#[inline]
-fn br_kin(n: &Node, k: usize) -> &TreeJointKin {
-    &n.kin[k]
 }
