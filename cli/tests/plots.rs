@@ -118,7 +118,8 @@ fn a_run_that_stops_is_plotted_up_to_where_it_stopped() {
     let file = dir.join("unstable.mbd");
     std::fs::write(&file, UNSTABLE).expect("write");
     let out = dir.join("out");
-    let o = mbdc(&["run", s(&file), "--interp", "-o", s(&out)]);
+    // --force: past the stability gate, which refuses h·ω = 10 before running
+    let o = mbdc(&["run", s(&file), "--interp", "--force", "-o", s(&out)]);
     assert!(!o.status.success(), "h·ω = 10 must not finish");
     for f in ["energy.svg", "trajectories.svg"] {
         let (t, _) = svg(&out.join(f));

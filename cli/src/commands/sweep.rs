@@ -31,8 +31,12 @@
 //! - Runs that diverge or stop stay in the table (status and time reached) and are drawn
 //!   as crosses along the top of the diagrams.
 //!
-//! The runs go through a [`runner::Runner`]: in process through the interpreter
-//! ([`runner::InterpRunner`]).
+//! The runs go through a [`runner::Runner`]: by default the scene's compiled program
+//! ([`runner::CompiledRunner`], built once like `mbdc run` builds it; step, method and
+//! duration are options of the program), with `--interp` the interpreter in this process
+//! ([`runner::InterpRunner`]). The numerical reference is always computed with the
+//! interpreter (it samples the run at every frame time of the sweep in memory; both paths
+//! run the same runtime and agree to round-off).
 
 pub mod fit;
 pub mod reference;
@@ -48,7 +52,7 @@ use mbdc_runtime::integrators::{self, StartError, State};
 use mbdc_runtime::scene::{LintForm, MethodSpec, Scene};
 
 use reference::{Errors, RefSolution};
-use runner::{InterpRunner, Outcome, Request, Runner, Status, Track};
+use runner::{CompiledRunner, InterpRunner, Outcome, Request, Runner, Status, Track};
 
 /// The error measure that is plotted and fitted.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
@@ -151,7 +155,7 @@ pub struct Args {
     /// The numerical reference's step is the finest swept step divided by this.
     #[arg(long, default_value_t = 8, value_name = "N")]
     pub reference_refine: u32,
-    /// Use the interpreter (the only runner so far).
+    /// Run the interpreter in this process instead of the scene's compiled program.
     #[arg(long)]
     pub interp: bool,
     /// Output folder (default: `out/<model name>-sweep`).
@@ -452,8 +456,8 @@ pub fn sweep(args: &Args, scene: &Scene) -> Result<SweepResult, String> {
     if args.reference_refine < 2 {
         return Err("--reference-refine must be at least 2".into());
     }
-    let mut runner = InterpRunner::new(scene)?;
-    let length_scale = mbdc_runtime::run::length_scale(runner.system());
+    let probe = InterpRunner::new(scene)?;
+    let length_scale = mbdc_runtime::run::length_scale(probe.system());
     let estimate = stability::estimate(scene);
 
     // steps
@@ -493,7 +497,7 @@ pub fn sweep(args: &Args, scene: &Scene) -> Result<SweepResult, String> {
     let per_frame = (n_max / args.frames.max(1) as f64).round().max(1.0);
     let frame_dt = per_frame * h_max;
 
-    let (methods, skipped) = methods(args, scene, &runner, scene.simulate.step);
+    let (methods, skipped) = methods(args, scene, &probe, scene.simulate.step);
     if methods.is_empty() {
         let why: Vec<String> = skipped.iter().map(|(n, w)| format!("{n}: {w}")).collect();
         return Err(format!(
@@ -501,6 +505,11 @@ pub fn sweep(args: &Args, scene: &Scene) -> Result<SweepResult, String> {
             why.join("; ")
         ));
     }
+    let mut runner: Box<dyn Runner> = if args.interp {
+        Box::new(InterpRunner::new(scene)?)
+    } else {
+        Box::new(CompiledRunner::new(scene, args.quiet)?)
+    };
     if !args.quiet {
         eprintln!(
             "sweeping {} method(s) × {} step(s) over {duration} s with the {}",
@@ -522,7 +531,7 @@ pub fn sweep(args: &Args, scene: &Scene) -> Result<SweepResult, String> {
                 every,
                 keep: true,
             };
-            let (outcome, repetitions) = measure_run(&mut runner, &req, args.min_time)?;
+            let (outcome, repetitions) = measure_run(runner.as_mut(), &req, args.min_time)?;
             if !args.quiet {
                 eprintln!(
                     "  {:<24} h = {:<9} {:<8} {:>10.3e} s × {}",
@@ -545,7 +554,7 @@ pub fn sweep(args: &Args, scene: &Scene) -> Result<SweepResult, String> {
     }
 
     // the reference
-    let reference = make_reference(args, scene, &runner, &methods, &runs, &steps)?;
+    let reference = make_reference(args, scene, &probe, &methods, &runs, &steps)?;
     let (info, solution) = reference;
     if let Some(sol) = &solution {
         for r in &mut runs {
@@ -573,7 +582,7 @@ pub fn sweep(args: &Args, scene: &Scene) -> Result<SweepResult, String> {
     } else {
         None
     };
-    let rules = |m: Measure| {
+    let rules = |m: Measure, spec: &MethodSpec| {
         let scale = if m.is_position() { length_scale } else { 1.0 };
         let floor = match &info {
             ReferenceInfo::Numerical { estimate, .. } => m
@@ -585,7 +594,10 @@ pub fn sweep(args: &Args, scene: &Scene) -> Result<SweepResult, String> {
         fit::Rules {
             floor,
             ceiling: 0.1 * scale,
-            h_limit: estimate.as_ref().map(|e| e.h_limit()),
+            h_limit: estimate
+                .as_ref()
+                .filter(|_| mbdc_runtime::stability::is_explicit(spec))
+                .map(|e| e.h_limit()),
         }
     };
     let fits = (0..methods.len())
@@ -600,9 +612,10 @@ pub fn sweep(args: &Args, scene: &Scene) -> Result<SweepResult, String> {
                     })
                     .collect()
             };
+            let spec = &methods[mi].spec;
             (
-                fit::fit(&pts(measure), &rules(measure)),
-                secondary.map(|s| fit::fit(&pts(s), &rules(s))),
+                fit::fit(&pts(measure), &rules(measure, spec)),
+                secondary.map(|s| fit::fit(&pts(s), &rules(s, spec))),
             )
         })
         .collect();

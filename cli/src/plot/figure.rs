@@ -537,6 +537,7 @@ where
                 .points
                 .iter()
                 .zip(&s.labels)
+                .filter(|(_, l)| !l.is_empty())
                 .filter_map(|(&(x, y), l)| Some(((tr(x, xlog)?, tr(y, ylog)?), l.clone())));
             chart
                 .draw_series(

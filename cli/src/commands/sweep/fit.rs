@@ -13,9 +13,17 @@
 //!    run towards coarser ones, runs whose local order against the next coarser kept run is
 //!    below 0.5 are dropped as *stalled* (a floor the rules above did not know: a
 //!    regularization parameter, a tolerance). The threshold is far below any method's
-//!    theoretical order so that a genuinely low order is measured, not hidden.
+//!    theoretical order so that a genuinely low order is measured, not hidden;
+//! 6. it is outside the *asymptotic range*: the local order of the finest two remaining
+//!    runs is the best estimate of the asymptotic order; walking towards coarser runs,
+//!    once the local order of a pair differs from it by more than 0.3, that pair's coarser
+//!    run and all coarser ones are left out. (Two error terms of different order and sign
+//!    can cancel at moderate steps and make the error fall "too fast" for a while; such
+//!    runs say nothing about the order.)
 //!
-//! At least two runs must remain.
+//! At least two runs must remain. The fit is thus made over the finest runs that agree
+//! with each other, which is what a convergence order means; sweep fine enough steps
+//! (`--levels`) for three or more of them.
 
 /// One run as the fit sees it.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -54,6 +62,8 @@ pub enum Excluded {
     Floor,
     /// The error stopped falling.
     Stalled,
+    /// Coarser than the asymptotic range.
+    NotAsymptotic,
 }
 
 impl Excluded {
@@ -66,6 +76,9 @@ impl Excluded {
             Excluded::PreAsymptotic => "error above the ceiling (not yet converging)",
             Excluded::Floor => "error at the floor",
             Excluded::Stalled => "error stalls",
+            Excluded::NotAsymptotic => {
+                "outside the asymptotic range (local order differs from the finest runs' by more than 0.3)"
+            }
         }
     }
 }
@@ -154,6 +167,18 @@ pub fn fit(points: &[Point], rules: &Rules) -> Fit {
             break;
         }
     }
+    if kept.len() >= 3 {
+        let n = kept.len();
+        let p_fine = slope(kept[n - 2], kept[n - 1]);
+        if let Some(i) = (0..n - 2)
+            .rev()
+            .find(|&i| (slope(kept[i], kept[i + 1]) - p_fine).abs() > 0.3)
+        {
+            for p in kept.drain(..=i) {
+                excluded.push((p.0, Excluded::NotAsymptotic));
+            }
+        }
+    }
     excluded.sort_by(|a, b| b.0.total_cmp(&a.0));
     Fit {
         order: least_squares(&kept),
@@ -196,6 +221,24 @@ mod tests {
             (f.order.expect("order") - 1.0).abs() < 1e-12,
             "a low order is measured"
         );
+    }
+
+    #[test]
+    fn cancellation_before_the_asymptotic_range_is_left_out() {
+        // e = h² (1 ± 40 h): the h³ term adds to (cancels part of) the h² one at coarse
+        // steps, so the error falls faster (slower) than h² there: local orders
+        // 2.36, 2.22, 2.13, … (0.42, 1.58, 1.83, …), tending to 2
+        let hs: Vec<f64> = (0..9).map(|k| 0.02 / 2f64.powi(k)).collect();
+        for sign in [1.0, -1.0] {
+            let f = fit(&pts(&hs, |h| h * h * (1.0 + sign * 40.0 * h)), &RULES);
+            let p = f.order.expect("order");
+            assert!((p - 2.0).abs() < 0.1, "{sign}: {p} {f:?}");
+            assert!(
+                f.excluded.iter().any(|e| e.1 == Excluded::NotAsymptotic),
+                "{f:?}"
+            );
+            assert!(f.used.len() >= 5, "{f:?}");
+        }
     }
 
     #[test]

@@ -183,6 +183,14 @@ pub fn json(r: &SweepResult) -> serde_json::Value {
         "length_scale_m": r.length_scale,
         "reference": reference,
         "methods": methods,
+        "cost_at": TARGETS.iter().map(|t| json!({
+            "error": t,
+            "methods": ranking(r, *t).iter().map(|(mi, c)| json!({
+                "name": r.methods[*mi].name,
+                "cpu_time_s": c.seconds(),
+                "interpolated": matches!(c, Cost::Interpolated(_)),
+            })).collect::<Vec<_>>(),
+        })).collect::<Vec<_>>(),
         "skipped_methods": r.skipped.iter().map(|(n, w)| json!({"name": n, "why": w})).collect::<Vec<_>>(),
         "runs": runs,
     })
@@ -305,6 +313,61 @@ pub fn cheapest(r: &SweepResult, target: f64) -> Option<&SweepRun> {
         .min_by(|a, b| a.outcome.cpu_time.total_cmp(&b.outcome.cpu_time))
 }
 
+/// What reaching an error costs a method.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Cost {
+    /// Interpolated (log–log) between the two runs whose errors bracket the target, s.
+    Interpolated(f64),
+    /// Already reached at the coarsest finished run, which cost this much, s.
+    AtMost(f64),
+}
+
+impl Cost {
+    /// The CPU time, s.
+    pub fn seconds(self) -> f64 {
+        match self {
+            Cost::Interpolated(c) | Cost::AtMost(c) => c,
+        }
+    }
+}
+
+/// The CPU time method `mi` needs for an error (the plotted measure) of `target`: along
+/// its work–precision line, between the finished runs that bracket the target (None if
+/// no finished run reaches it).
+pub fn cost_at(r: &SweepResult, mi: usize, target: f64) -> Option<Cost> {
+    let mut pts: Vec<(f64, f64, f64)> = r
+        .runs
+        .iter()
+        .filter(|x| x.method == mi && x.outcome.status.is_ok())
+        .filter_map(|x| {
+            let e = r.measure.of(x.errors.as_ref()?)?;
+            (e.is_finite() && x.outcome.cpu_time > 0.0).then_some((x.step, e, x.outcome.cpu_time))
+        })
+        .collect();
+    pts.sort_by(|a, b| b.0.total_cmp(&a.0));
+    let first = pts.iter().position(|p| p.1 <= target)?;
+    if first == 0 {
+        return Some(Cost::AtMost(pts[0].2));
+    }
+    let (a, b) = (pts[first - 1], pts[first]);
+    if b.1 <= 0.0 {
+        return Some(Cost::Interpolated(b.2));
+    }
+    let s = (target.ln() - a.1.ln()) / (b.1.ln() - a.1.ln());
+    Some(Cost::Interpolated(
+        (a.2.ln() + s * (b.2.ln() - a.2.ln())).exp(),
+    ))
+}
+
+/// The methods that reach `target`, cheapest first.
+pub fn ranking(r: &SweepResult, target: f64) -> Vec<(usize, Cost)> {
+    let mut v: Vec<(usize, Cost)> = (0..r.methods.len())
+        .filter_map(|mi| Some((mi, cost_at(r, mi, target)?)))
+        .collect();
+    v.sort_by(|a, b| a.1.seconds().total_cmp(&b.1.seconds()));
+    v
+}
+
 /// The "reading this" text.
 pub fn reading(r: &SweepResult) -> String {
     let mut s = String::new();
@@ -319,22 +382,36 @@ pub fn reading(r: &SweepResult) -> String {
         "- sweep.svg, right: error against step. The slope is the convergence order (fitted, in the legend; the dashed line has slope 2). Where a line flattens, the method has stopped converging: it has reached the reference's own error, round-off, or a floor of its own (a regularization, a tolerance). Crosses along the top are runs that diverged or stopped."
     );
     for target in TARGETS {
-        match cheapest(r, target) {
-            Some(run) => {
-                let _ = writeln!(
-                    s,
-                    "- Cheapest run with error ≤ {target:e} {unit}: {} at h = {} s, {:.2e} s CPU.",
-                    r.methods[run.method].name,
-                    short_sci(run.step),
-                    run.outcome.cpu_time
-                );
-            }
-            None => {
-                let _ = writeln!(
-                    s,
-                    "- No run reached error ≤ {target:e} {unit}; sweep finer steps (--levels, --steps) to see what it costs."
-                );
-            }
+        let rank = ranking(r, target);
+        if rank.is_empty() {
+            let _ = writeln!(
+                s,
+                "- No run reached error ≤ {target:e} {unit}; sweep finer steps (--levels, --steps) to see what it costs."
+            );
+            continue;
+        }
+        let list: Vec<String> = rank
+            .iter()
+            .map(|(mi, c)| match c {
+                Cost::Interpolated(t) => format!("{} {t:.2e} s", r.methods[*mi].name),
+                Cost::AtMost(t) => {
+                    format!("{} ≤ {t:.2e} s (at its coarsest step)", r.methods[*mi].name)
+                }
+            })
+            .collect();
+        let _ = writeln!(
+            s,
+            "- CPU time for error {target:e} {unit} (interpolated between the runs that bracket it), cheapest first: {}.",
+            list.join(", ")
+        );
+        if let Some(run) = cheapest(r, target) {
+            let _ = writeln!(
+                s,
+                "  Cheapest measured run at or below it: {} at h = {} s, {:.2e} s.",
+                r.methods[run.method].name,
+                short_sci(run.step),
+                run.outcome.cpu_time
+            );
         }
     }
     let failed: Vec<String> = r
@@ -391,7 +468,19 @@ pub fn figure(r: &SweepResult) -> Figure {
             wp_marks.push((x.outcome.cpu_time, c));
             es_marks.push((x.step, c));
         }
-        let labels: Vec<String> = ok.iter().map(|(x, _)| short_sci(x.step)).collect();
+        // label every point of short lines; every other one (and the last) of long ones
+        let thin = ok.len() > 5;
+        let labels: Vec<String> = ok
+            .iter()
+            .enumerate()
+            .map(|(i, (x, _))| {
+                if !thin || i % 2 == 0 || i + 1 == ok.len() {
+                    short_sci(x.step)
+                } else {
+                    String::new()
+                }
+            })
+            .collect();
         let none = if ok.is_empty() {
             " (no run with an error)"
         } else {
@@ -614,6 +703,87 @@ mod tests {
         let mut s = String::new();
         csv_field(&mut s, "plain");
         assert_eq!(s, "plain");
+    }
+
+    fn result(points: &[(f64, Option<f64>, f64)]) -> SweepResult {
+        use super::super::reference::Errors;
+        use super::super::runner::{Outcome, Status, Track};
+        use super::super::MethodEntry;
+        let runs = points
+            .iter()
+            .map(|&(h, e, cpu)| SweepRun {
+                method: 0,
+                step: h,
+                every: 1,
+                outcome: Outcome {
+                    status: if e.is_some() {
+                        Status::Ok
+                    } else {
+                        Status::Diverged {
+                            t: 0.1,
+                            what: "x".into(),
+                        }
+                    },
+                    cpu_time: cpu,
+                    steps: 1,
+                    t_end: 1.0,
+                    track: Track::new(1),
+                    max_violation: 0.0,
+                    energy_drift: 0.0,
+                    iterations: None,
+                },
+                repetitions: 1,
+                errors: e.map(|e| Errors {
+                    pos_max: Some(e),
+                    ..Errors::default()
+                }),
+            })
+            .collect();
+        SweepResult {
+            model: "m".into(),
+            duration: 1.0,
+            runner: "interpreter".into(),
+            estimate: None,
+            steps_note: String::new(),
+            methods: vec![MethodEntry {
+                name: "staggered",
+                spec: mbdc_runtime::scene::MethodSpec::default_for("staggered").expect("known"),
+                options: String::new(),
+                theory: Some(2.0),
+            }],
+            skipped: vec![],
+            runs,
+            reference: ReferenceInfo::Analytic,
+            measure: Measure::PosMax,
+            secondary: None,
+            length_scale: 1.0,
+            fits: vec![],
+        }
+    }
+
+    #[test]
+    fn cost_is_interpolated_along_the_line() {
+        // error 1e-2, 1e-4 at cpu 1, 100: error 1e-3 costs 10 (log-log midpoint)
+        let r = result(&[
+            (0.1, None, 0.5),
+            (0.01, Some(1e-2), 1.0),
+            (0.001, Some(1e-4), 100.0),
+        ]);
+        match cost_at(&r, 0, 1e-3) {
+            Some(Cost::Interpolated(c)) => assert!((c - 10.0).abs() < 1e-9, "{c}"),
+            other => panic!("{other:?}"),
+        }
+        assert_eq!(cost_at(&r, 0, 1e-1), Some(Cost::AtMost(1.0)));
+        assert_eq!(cost_at(&r, 0, 1e-6), None);
+        assert_eq!(ranking(&r, 1e-3).len(), 1);
+        assert_eq!(cheapest(&r, 1e-3).map(|x| x.step), Some(0.001));
+        let text = reading(&r);
+        assert!(text.contains("staggered 1.00e1 s"), "{text}");
+        assert!(text.contains("No run reached error ≤ 1e-6 m"), "{text}");
+        assert!(
+            text.contains("staggered at h = 1e-1 s (diverged)"),
+            "{text}"
+        );
     }
 
     #[test]

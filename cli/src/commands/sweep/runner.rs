@@ -11,10 +11,22 @@
 //! (`CLOCK_THREAD_CPUTIME_ID`; wall time where that clock is missing), measured around the
 //! whole run: integrator set-up, the steps, and the evaluation of the sparse output
 //! frames (constraint violation, energy), but not building the scene.
+//!
+//! [`CompiledRunner`] runs the scene's generated program (built once by `mbdc run`'s
+//! compiled path, `crate::compiled`), one process per run, with the method, step, duration
+//! and output interval as options, and reads back `summary.json` and `bodies.csv`. Its CPU
+//! time is measured around the program: the user + system time the operating system
+//! accounts to the finished child (`getrusage(RUSAGE_CHILDREN)`), minus the same for a
+//! zero-length run of the program (start-up, reading the scene, writing the files), so
+//! that what remains is the integration, as for the interpreter.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
 
 use mbdc_runtime::interp::Interp;
+use mbdc_runtime::output::Summary;
 use mbdc_runtime::run::{self, Frame, Observer, OnFailure, RunConfig, RunReport, Watchdog};
-use mbdc_runtime::scene::{MethodSpec, Scene};
+use mbdc_runtime::scene::{MethodSpec, OutputSpec, Scene};
 
 /// Body states at the output frames of a run, frame-major (`r[f * bodies + b]`).
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -225,6 +237,7 @@ fn wall_clock() -> f64 {
 pub fn iterations_mean(stats: &[(String, f64)], steps: u64) -> Option<f64> {
     let get = |n: &str| stats.iter().find(|(k, _)| k == n).map(|(_, v)| *v);
     get("newton_iterations_mean")
+        .or_else(|| get("pcg_iterations_mean"))
         .or_else(|| get("projection_iterations").map(|v| v / steps.max(1) as f64))
 }
 
@@ -358,6 +371,203 @@ impl InterpRunner {
     fn sys_bodies(&self) -> usize {
         use mbdc_runtime::system::System;
         self.sys.layout().bodies()
+    }
+}
+
+/// CPU time (user + system) of this process's finished children, s.
+pub fn children_cpu_time() -> f64 {
+    #[cfg(unix)]
+    {
+        // SAFETY: an all-zero rusage is a valid value to be overwritten.
+        let mut ru: libc::rusage = unsafe { std::mem::zeroed() };
+        // SAFETY: `ru` is a valid, writable rusage.
+        if unsafe { libc::getrusage(libc::RUSAGE_CHILDREN, &mut ru) } == 0 {
+            let tv = |t: libc::timeval| t.tv_sec as f64 + t.tv_usec as f64 * 1e-6;
+            return tv(ru.ru_utime) + tv(ru.ru_stime);
+        }
+    }
+    wall_clock()
+}
+
+/// Runs the scene's compiled program, one process per run.
+pub struct CompiledRunner {
+    program: PathBuf,
+    /// Scratch folder: scene files per method and the output of the current run.
+    work: PathBuf,
+    scene: Scene,
+    /// Scene JSON files written so far, by method.
+    scene_files: Vec<(MethodSpec, PathBuf)>,
+    /// CPU time of a zero-length run, s.
+    baseline: f64,
+}
+
+impl CompiledRunner {
+    /// Generate and build the scene's program (cached by structure, as `mbdc run` does) and
+    /// measure its start-up cost.
+    ///
+    /// # Errors
+    /// If the program cannot be generated, built or started.
+    pub fn new(scene: &Scene, quiet: bool) -> Result<CompiledRunner, String> {
+        let krate = crate::compiled::prepare(scene)?;
+        let program = crate::compiled::build(&krate, quiet).map_err(|f| {
+            crate::compiled::report_build_failure(&f, &krate);
+            format!("{} (`mbdc sweep --interp` runs the interpreter)", f.reason)
+        })?;
+        let work = std::env::temp_dir().join(format!(
+            "mbdc-sweep-{}-{}",
+            std::process::id(),
+            std::time::SystemTime::now()
+                .duration_since(std::time::UNIX_EPOCH)
+                .map(|d| d.as_nanos())
+                .unwrap_or(0)
+        ));
+        std::fs::create_dir_all(&work).map_err(|e| format!("creating {}: {e}", work.display()))?;
+        let mut scene = scene.clone();
+        scene.simulate.output = OutputSpec {
+            every: 1,
+            bodies: true,
+            energy: false,
+            constraints: false,
+        };
+        let mut r = CompiledRunner {
+            program,
+            work,
+            scene,
+            scene_files: Vec::new(),
+            baseline: 0.0,
+        };
+        let method = r.scene.simulate.method.clone();
+        let step = r.scene.simulate.step;
+        let mut best = f64::INFINITY;
+        for _ in 0..5 {
+            let req = Request {
+                method: &method,
+                step,
+                duration: 0.0,
+                every: 1,
+                keep: false,
+            };
+            best = best.min(r.run(&req)?.cpu_time);
+        }
+        r.baseline = best;
+        Ok(r)
+    }
+
+    fn scene_file(&mut self, method: &MethodSpec) -> Result<PathBuf, String> {
+        if let Some((_, p)) = self.scene_files.iter().find(|(m, _)| m == method) {
+            return Ok(p.clone());
+        }
+        let mut s = self.scene.clone();
+        s.simulate.method = method.clone();
+        let text = serde_json::to_string(&s).map_err(|e| e.to_string())?;
+        let p = self
+            .work
+            .join(format!("scene-{}.json", self.scene_files.len()));
+        std::fs::write(&p, text).map_err(|e| format!("writing {}: {e}", p.display()))?;
+        self.scene_files.push((method.clone(), p.clone()));
+        Ok(p)
+    }
+}
+
+impl Drop for CompiledRunner {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.work);
+    }
+}
+
+/// Read the body states of a `bodies.csv`.
+fn read_track(path: &Path, bodies: &[String]) -> Result<Track, String> {
+    let mut names = vec!["t".to_string()];
+    for b in bodies {
+        for c in mbdc_runtime::output::BODY_COLUMNS {
+            names.push(format!("{b}.{c}"));
+        }
+    }
+    let c = crate::plot::data::read(path, &names).map_err(|e| e.to_string())?;
+    let mut tr = Track::new(bodies.len());
+    tr.t = c.data[0].clone();
+    for f in 0..tr.t.len() {
+        for b in 0..bodies.len() {
+            let v = |k: usize| c.data[1 + 13 * b + k][f];
+            tr.r.push([v(0), v(1), v(2)]);
+            tr.q.push([v(3), v(4), v(5), v(6)]);
+            tr.v.push([v(7), v(8), v(9)]);
+            tr.w.push([v(10), v(11), v(12)]);
+        }
+    }
+    Ok(tr)
+}
+
+impl Runner for CompiledRunner {
+    fn describe(&self) -> String {
+        format!(
+            "compiled program {} (CPU time of the process, minus {:.1e} s of start-up)",
+            self.program
+                .file_name()
+                .map(|n| n.to_string_lossy().into_owned())
+                .unwrap_or_default(),
+            self.baseline
+        )
+    }
+
+    fn run(&mut self, req: &Request<'_>) -> Result<Outcome, String> {
+        let scene_file = self.scene_file(req.method)?;
+        let out = self.work.join("run");
+        let _ = std::fs::remove_dir_all(&out);
+        let c0 = children_cpu_time();
+        let o = Command::new(&self.program)
+            .arg("--scene")
+            .arg(&scene_file)
+            .args(["--step", &req.step.to_string()])
+            .args(["--duration", &req.duration.to_string()])
+            .args(["--every", &req.every.max(1).to_string()])
+            .arg("--out")
+            .arg(&out)
+            .arg("--quiet")
+            .stdin(Stdio::null())
+            .stdout(Stdio::null())
+            .stderr(Stdio::piped())
+            .output()
+            .map_err(|e| format!("running {}: {e}", self.program.display()))?;
+        let cpu_time = (children_cpu_time() - c0 - self.baseline).max(0.0);
+        if !matches!(o.status.code(), Some(0 | 1)) {
+            return Err(format!(
+                "the scene's program {} failed ({}): {}",
+                self.program.display(),
+                o.status,
+                String::from_utf8_lossy(&o.stderr).trim()
+            ));
+        }
+        let summary = Summary::read(&out.join("summary.json")).map_err(|e| e.to_string())?;
+        let status = match &summary.failure {
+            None if summary.finished => Status::Ok,
+            None => Status::Stopped {
+                t: summary.final_time,
+                why: "the run ended early".into(),
+            },
+            Some(f) => classify(f.time, &f.quantity, &f.location, f.value, &f.cause),
+        };
+        let track = if req.keep {
+            let names: Vec<String> = self.scene.bodies.iter().map(|b| b.name.clone()).collect();
+            read_track(&out.join("bodies.csv"), &names)?
+        } else {
+            Track::new(self.scene.bodies.len())
+        };
+        let stats: Vec<(String, f64)> = summary
+            .extra
+            .iter()
+            .filter_map(|(k, v)| Some((k.clone(), v.as_f64()?)))
+            .collect();
+        Ok(Outcome {
+            status,
+            cpu_time,
+            steps: summary.steps,
+            t_end: summary.final_time,
+            track,
+            max_violation: summary.max_constraint_violation.unwrap_or(0.0),
+            energy_drift: summary.max_energy_drift.unwrap_or(0.0),
+            iterations: iterations_mean(&stats, summary.steps),
+        })
     }
 }
 
