@@ -18,6 +18,10 @@ pub struct Args {
     /// Print the set of effects the scene uses.
     #[arg(long)]
     pub effects: bool,
+    /// Print the topology: spanning tree, cut joints, loops, branches, degrees of freedom,
+    /// and the independent coordinates of natural partitioning per joint.
+    #[arg(long)]
+    pub topology: bool,
     /// Print the lowered scene as JSON (SI units) instead of the summary.
     #[arg(long)]
     pub json: bool,
@@ -80,6 +84,14 @@ pub fn run(args: Args) -> ExitCode {
                 if names.contains(&n) { "yes" } else { "no" }
             );
         }
+    }
+    if args.topology {
+        let topo = mbdc_runtime::topology::Topology::new(scene);
+        print!("{}", topo.render(scene));
+        print!(
+            "{}",
+            mbdc_runtime::integrators::natural::tree::coordinates_report(scene, &topo)
+        );
     }
     if !loaded.diagnostics.is_empty() {
         eprintln!(
