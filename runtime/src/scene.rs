@@ -704,6 +704,21 @@ pub struct StaggeredOptions {
     pub paper_literal: bool,
     /// How the regularized λ equation `ε λ̇ = Φ̇` is discretized.
     pub lint: LintForm,
+    /// How the gyroscopic term `ω × Jω` is evaluated in the two-stage update.
+    #[serde(default)]
+    pub gyroscopic: Gyroscopic,
+}
+
+/// Evaluation of the gyroscopic term in the staggered update (see docs/methods.md).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Gyroscopic {
+    /// The implicit midpoint rule within each sequence, `J(ω⁺ − ω)/h + ω̄ × Jω̄ = τ`,
+    /// solved per body: conserves a free body's energy and angular momentum exactly.
+    #[default]
+    Midpoint,
+    /// The paper's two-stage exchange: ω taken from the other sequence (C3 §IV.B). Its
+    /// computational mode grows on gyroscopically stabilized constrained systems (a heavy top).
+    Synchronous,
 }
 
 /// Discretization of the staggered method's λ equation (see docs/methods.md).
@@ -724,6 +739,7 @@ impl Default for StaggeredOptions {
             single_stage: false,
             paper_literal: false,
             lint: LintForm::Exact,
+            gyroscopic: Gyroscopic::Midpoint,
         }
     }
 }

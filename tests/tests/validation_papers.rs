@@ -102,9 +102,9 @@ fn bowling_ball_centred_is_periodic() {
 }
 
 /// Check 5b. The offset bowling ball (mass centre 0.15a from the geometric centre; our reading
-/// of Table 1): the two-stage update evaluates the gyroscopic terms with the synchronous ω of
-/// the other sequence, the conventional single-stage update (C3 eq. 41) with the lagged
-/// ω^{n−1/2}. The paper reports the two-stage scheme stable at h = 0.15 where the single-stage
+/// of Table 1): the two-stage update evaluates the gyroscopic terms at a synchronous ω (by the
+/// midpoint rule; the paper's exchange between the sequences gives the same orders here), the
+/// conventional single-stage update (C3 eq. 41) with the lagged ω^{n−1/2}. The paper reports the two-stage scheme stable at h = 0.15 where the single-stage
 /// one diverges at h = 0.2 (Fig. 7). With our parameters (the paper's J₁, J₂, r₀ and the unit
 /// of x are not recoverable) neither diverges in 12 s, but the difference the paper describes
 /// shows as accuracy: reference the implicit trapezoid at h = 0.5 ms; the two-stage error in ω

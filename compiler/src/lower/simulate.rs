@@ -2,7 +2,8 @@
 
 use mbdc_dsl::ast::{Expr, ItemKind};
 use mbdc_runtime::scene::{
-    BodyReference, Fn1, LintForm, MethodSpec, OutputSpec, Reference, Simulate, StaggeredOptions,
+    BodyReference, Fn1, Gyroscopic, LintForm, MethodSpec, OutputSpec, Reference, Simulate,
+    StaggeredOptions,
 };
 
 use super::body::num;
@@ -27,7 +28,13 @@ const OUTPUT_KEYS: &[Key] = &[
 /// The options each method accepts.
 pub(crate) fn method_options(name: &str) -> &'static [&'static str] {
     match name {
-        "staggered" => &["epsilon", "single_stage", "paper_literal", "lint"],
+        "staggered" => &[
+            "epsilon",
+            "single_stage",
+            "paper_literal",
+            "lint",
+            "gyroscopic",
+        ],
         "baumgarte" => &["alpha", "beta"],
         "penalty" => &["epsilon"],
         "implicit_trapezoid" => &["tolerance", "max_iterations"],
@@ -324,6 +331,21 @@ impl<'a> Lowerer<'a> {
                 *beta = self.nonneg(v, sc, Dim::FREQUENCY, "beta")?
             }
             (MethodSpec::Penalty { epsilon }, "epsilon") => *epsilon = Some(self.epsilon(v, sc)?),
+            (MethodSpec::Staggered(o), "gyroscopic") => {
+                o.gyroscopic = match ident_of(v) {
+                    Some("midpoint") => Gyroscopic::Midpoint,
+                    Some("synchronous") => Gyroscopic::Synchronous,
+                    _ => {
+                        return Err(self.report(
+                            Diagnostic::error(
+                                codes::WRONG_KIND,
+                                "`gyroscopic` is `midpoint` or `synchronous`",
+                            )
+                            .primary(sc.file, v.span, ""),
+                        ))
+                    }
+                };
+            }
             (MethodSpec::NaturalPartitioning { epsilon, .. }, "epsilon") => {
                 *epsilon = Some(self.epsilon(v, sc)?)
             }

@@ -11,12 +11,24 @@
 //! `u̇ ← u̇ + h M⁻¹(Q̄ − Bᵀλ)`, `r ← r + h v`, `q ← cayley(q, ω, h)`,
 //!
 //! where the Euler parameters use the midpoint-implicit (Cayley) rule with the corrected
-//! `Δ = 1 + h²|ω|²/16` ([`crate::math::cayley_update`]). `Q̄ = F − ω × Jω`: the gyroscopic
-//! term uses the *other* sequence's ω, which is at τ exactly (the reason for two stages: C3
-//! §IV.B, Fig. 7); damping forces use X's own, lagged velocity (the leapfrog is unstable for
-//! damping evaluated with the synchronous velocity of the other sequence, notes A §1.9;
-//! lagged it is stable for c·h < 2). `single_stage` keeps one sequence and uses the lagged
-//! velocity for the gyroscopic term too (C3 eq. 41), for the comparison of C3 Fig. 7.
+//! `Δ = 1 + h²|ω|²/16` ([`crate::math::cayley_update`]) and `Q̄ = F − ω × Jω`.
+//!
+//! The gyroscopic term must be evaluated at a synchronous ω: extrapolating it explicitly "can
+//! lead quickly to computational instability" (C3 §IV.B, Fig. 7). The paper's remedy is the
+//! two-stage exchange: each sequence takes ω from the other, which is at τ exactly
+//! ([`Gyroscopic::Synchronous`]). That exchange is the only coupling between the two sequences,
+//! and their difference (the leapfrog's computational mode) sees it with the opposite sign
+//! while the kinematics through the constraints keeps its own: on a gyroscopically stabilized
+//! constrained system — a heavy top on its tip — that mode grows at the rate the top would fall
+//! without spin (≈ 9 /s), whatever the step, and the top falls over within 2 s. The default
+//! ([`Gyroscopic::Midpoint`]) evaluates the term by the implicit midpoint rule inside each
+//! sequence, `J(ω⁺ − ω)/h + ω̄ × Jω̄ = τ − (Bᵀλ)_ω` with `ω̄ = (ω + ω⁺)/2`, solved per body by a
+//! 3×3 Newton iteration: the sequences no longer exchange anything, the top precesses to
+//! 1e-3° of theory, and a free body's energy and angular momentum are conserved to round-off
+//! (the midpoint rule conserves quadratic invariants). Damping forces use the sequence's own,
+//! lagged velocity (with the other sequence's velocity the leapfrog is unstable for any damping,
+//! notes A §1.9; lagged, it is stable for `c·h < 2`). `single_stage` keeps one sequence and the
+//! lagged ω (the conventional update, C3 eq. 41), for the comparison of C3 Fig. 7.
 //!
 //! ## LINT: the staggered stabilization (default, [`LintForm::Exact`])
 //! The method regularizes the constraints by the penalty law `λ = Φ/ε` and integrates
@@ -66,7 +78,7 @@ use super::common::{self, accel, b_minv, b_times, bt_lambda, qbar, Index1};
 use super::{Integrator, StartError, State, StepError, StepInfo};
 use crate::linalg::{Backend, Definiteness, KSolver, KSolverOptions, LinalgError};
 use crate::math::cayley_update;
-use crate::scene::{LintForm, StaggeredOptions};
+use crate::scene::{Gyroscopic, LintForm, StaggeredOptions};
 use crate::system::{ConstraintEval, Need, Pose, RowKind, System, Twist, Wrench};
 
 /// One leapfrog sequence.
@@ -79,8 +91,14 @@ struct Seq {
 /// The constraint-force module.
 #[derive(Clone, Debug)]
 enum Law {
-    Staggered { lint: LintForm },
-    Baumgarte { alpha: f64, beta: f64 },
+    Staggered {
+        lint: LintForm,
+        gyroscopic: Gyroscopic,
+    },
+    Baumgarte {
+        alpha: f64,
+        beta: f64,
+    },
     Penalty,
 }
 
@@ -98,6 +116,8 @@ pub struct TwoStage {
     e_eff: Vec<f64>,
     lambda_guess: Vec<f64>,
     regularized_steps: u64,
+    /// Gyroscopic term by the implicit midpoint rule inside each sequence.
+    midpoint_gyro: bool,
     tau: f64,
     t0: f64,
     half_steps: u64,
@@ -144,7 +164,10 @@ impl TwoStage {
         opts: &StaggeredOptions,
         start: &State,
     ) -> Result<TwoStage, StartError> {
-        let law = Law::Staggered { lint: opts.lint };
+        let law = Law::Staggered {
+            lint: opts.lint,
+            gyroscopic: opts.gyroscopic,
+        };
         TwoStage::new(
             sys,
             h,
@@ -291,6 +314,16 @@ impl TwoStage {
             seq_a.pose[i] = common::rotate_body(&pose[i], dr, phi);
         }
 
+        // The gyroscopic term: by the implicit midpoint rule inside each sequence (default),
+        // from the other sequence (the paper's two-stage exchange), or lagged (single stage).
+        let midpoint_gyro = !single_stage
+            && !matches!(
+                law,
+                Law::Staggered {
+                    gyroscopic: Gyroscopic::Synchronous,
+                    ..
+                }
+            );
         let mut s = TwoStage {
             law,
             name,
@@ -301,6 +334,7 @@ impl TwoStage {
             e_eff: e.clone(),
             lambda_guess: vec![0.0; m],
             regularized_steps: 0,
+            midpoint_gyro,
             e,
             tau: t0,
             t0,
@@ -335,26 +369,38 @@ impl TwoStage {
         Ok(s)
     }
 
+    fn cint_opts(&self) -> CintOpts {
+        CintOpts {
+            h: self.h,
+            literal: self.paper_literal,
+            midpoint_gyro: self.midpoint_gyro,
+        }
+    }
+
     /// The ε in use (m/N for position rows; for nonholonomic rows (m/s)/N).
     pub fn epsilon(&self) -> f64 {
         self.epsilon
     }
 
     /// Forces and constraints at τ for sequence `x` (positions at τ, velocities at τ − h/2),
-    /// with the synchronous velocities of sequence `y`.
+    /// with the synchronous velocities of sequence `y` (used for the gyroscopic term only with
+    /// [`Gyroscopic::Synchronous`]; with the midpoint rule it is in the coordinate update).
     fn evaluate<S: System>(&mut self, sys: &S, x: usize, y: usize) {
         let layout = sys.layout();
         let (px, vx, vy) = (&self.seq[x].pose, &self.seq[x].vel, &self.seq[y].vel);
         sys.applied(self.tau, px, vx, &mut self.applied);
-        qbar(layout, &self.applied, vy, &mut self.qbar);
+        if self.midpoint_gyro {
+            self.qbar.copy_from_slice(&self.applied);
+        } else {
+            qbar(layout, &self.applied, vy, &mut self.qbar);
+        }
         sys.constraints(self.tau, px, vy, Need::ALL, &mut self.ce);
     }
 
     /// Advance `src` by h with the current `qbar` and `flam` into `dst`.
     fn cint(
         layout: &crate::system::Layout,
-        h: f64,
-        literal: bool,
+        o: CintOpts,
         qbar: &[Wrench],
         flam: &[Wrench],
         src: &Seq,
@@ -363,8 +409,7 @@ impl TwoStage {
         for i in 0..layout.bodies() {
             (dst.pose[i], dst.vel[i]) = cint_body(
                 &layout.mass[i],
-                h,
-                literal,
+                o,
                 &qbar[i],
                 &flam[i],
                 &src.pose[i],
@@ -376,8 +421,7 @@ impl TwoStage {
     /// Advance `seq` by h in place.
     fn cint_in_place(
         layout: &crate::system::Layout,
-        h: f64,
-        literal: bool,
+        o: CintOpts,
         qbar: &[Wrench],
         flam: &[Wrench],
         seq: &mut Seq,
@@ -385,8 +429,7 @@ impl TwoStage {
         for i in 0..layout.bodies() {
             (seq.pose[i], seq.vel[i]) = cint_body(
                 &layout.mass[i],
-                h,
-                literal,
+                o,
                 &qbar[i],
                 &flam[i],
                 &seq.pose[i],
@@ -457,8 +500,7 @@ impl TwoStage {
             let mut trial = trial;
             Self::cint(
                 layout,
-                h,
-                self.paper_literal,
+                self.cint_opts(),
                 &self.qbar,
                 &self.flam,
                 &self.seq[x],
@@ -694,8 +736,7 @@ impl TwoStage {
             bt_lambda(layout, &self.ce, &self.lambda, &self.active, &mut self.flam);
             Self::cint_in_place(
                 layout,
-                self.h,
-                self.paper_literal,
+                self.cint_opts(),
                 &self.qbar,
                 &self.flam,
                 &mut self.seq[x],
@@ -731,6 +772,16 @@ impl TwoStage {
     }
 }
 
+/// Settings of one coordinate update.
+#[derive(Clone, Copy, Debug)]
+struct CintOpts {
+    h: f64,
+    /// Printed Δ of the Euler-parameter update.
+    literal: bool,
+    /// Gyroscopic term by the implicit midpoint rule (else it is in `qbar` already).
+    midpoint_gyro: bool,
+}
+
 /// Coefficient of `(r_prev + r)` in the midpoint LINT over a λ step `lam_step`: the
 /// consistent `lam_step/4` (h/8 for the half step), or the printed `lam_step/2` (h/4), whose
 /// fixed point is `2A⁻¹r` instead of `A⁻¹r` (notes A §1.6).
@@ -746,8 +797,7 @@ fn midpoint_rhs_factor(lam_step: f64, paper_literal: bool) -> f64 {
 #[inline]
 fn cint_body(
     m: &crate::system::MassProps,
-    h: f64,
-    literal: bool,
+    o: CintOpts,
     qbar: &Wrench,
     flam: &Wrench,
     p: &Pose,
@@ -760,9 +810,33 @@ fn cint_body(
             t: qbar.t - flam.t,
         },
     );
-    let v = Twist {
-        v: v.v + a.v * h,
-        w: v.w + a.w * h,
+    let (h, literal) = (o.h, o.literal);
+    let v = if o.midpoint_gyro {
+        // implicit midpoint for the rotational equation: J(ω⁺ − ω)/h + ω̄ × Jω̄ = τ
+        let tau = qbar.t - flam.t;
+        let w0 = v.w;
+        let mut w1 = w0 + a.w * h;
+        for _ in 0..8 {
+            let wb = (w0 + w1) * 0.5;
+            let f = m.j * (w1 - w0) / h + wb.cross(&(m.j * wb)) - tau;
+            let jac =
+                m.j / h + (crate::math::skew(&wb) * m.j - crate::math::skew(&(m.j * wb))) * 0.5;
+            let Some(inv) = jac.try_inverse() else { break };
+            let d = inv * f;
+            w1 -= d;
+            if d.norm() <= 1e-15 * (1.0 + w1.norm()) {
+                break;
+            }
+        }
+        Twist {
+            v: v.v + a.v * h,
+            w: w1,
+        }
+    } else {
+        Twist {
+            v: v.v + a.v * h,
+            w: v.w + a.w * h,
+        }
     };
     let q = cayley_update(&p.q, &v.w, h, literal);
     (
