@@ -24,6 +24,8 @@
 //!   with the structure key that identifies interchangeable programs ([`codegen::plan`]).
 //! - [`build`] / [`Builder`] (module [`embed`]): generate a model file's Rust into `OUT_DIR`
 //!   from a build script, with `cargo:rerun-if-changed` for every file read.
+//! - [`tokens`]: the work of the `model!` and `include_model!` proc-macros (model text from
+//!   tokens and errors back at the tokens).
 //! - [`Diagnostic`]: severity, stable code ([`diag::codes`]), message, labelled spans, help.
 //!   [`Diagnostic::render_plain`] renders one as text; [`Diagnostic::with_sources`] gives a
 //!   [`miette::Diagnostic`] with its source attached.
@@ -64,6 +66,7 @@ mod lower;
 pub mod source;
 pub mod suggest;
 pub mod summary;
+pub mod tokens;
 pub mod units;
 pub mod validate;
 pub mod value;

@@ -1,0 +1,3 @@
+mbdc_macros::include_model!("tests/ui/no_such_model.mbd");
+
+fn main() {}
