@@ -1,10 +1,8 @@
 //! The `build.rs` API: generate the Rust of a `.mbd` scene into `OUT_DIR`.
 //!
 //! ```no_run
-//! // build.rs
-//! fn main() {
-//!     mbdc_compiler::build("models/pendulum.mbd");
-//! }
+//! // build.rs: `fn main() { ... }` runs this
+//! mbdc_compiler::build("models/pendulum.mbd");
 //! ```
 //!
 //! ```ignore
@@ -91,6 +89,7 @@ pub struct Builder {
     out_dir: Option<PathBuf>,
     mode: Option<Mode>,
     cargo: bool,
+    warnings: bool,
 }
 
 impl Builder {
@@ -104,7 +103,15 @@ impl Builder {
             out_dir: None,
             mode: None,
             cargo: true,
+            warnings: true,
         }
+    }
+
+    /// Whether the model's warnings are printed as `cargo:warning` lines (on by default;
+    /// errors are always reported).
+    pub fn warnings(mut self, on: bool) -> Builder {
+        self.warnings = on;
+        self
     }
 
     /// Override a parameter, as `mbdc run --set NAME=VALUE` (value as `.mbd` text, e.g.
@@ -168,7 +175,7 @@ impl Builder {
             for d in loaded
                 .diagnostics
                 .iter()
-                .filter(|d| d.severity == Severity::Warning)
+                .filter(|d| self.warnings && d.severity == Severity::Warning)
             {
                 for line in d.render_plain(&loaded.sources).lines() {
                     println!("cargo:warning={line}");

@@ -56,7 +56,9 @@ pub fn energy_sources(scene: &Scene) -> bool {
 }
 
 /// The run configuration of `scene` on `sys` with the user's settings: the same for the
-/// interpreter and compiled code.
+/// interpreter and compiled code. Refused: a step or duration out of range
+/// ([`crate::limits::check_run`]) and method options out of range
+/// ([`crate::limits::check_method`]).
 pub fn run_config<S: System>(sys: &S, scene: &Scene, s: &Settings) -> Result<RunConfig, String> {
     let method = match &s.method {
         Some(name) if name != scene.simulate.method.name() => {
@@ -66,12 +68,8 @@ pub fn run_config<S: System>(sys: &S, scene: &Scene, s: &Settings) -> Result<Run
     };
     let step = s.step.unwrap_or(scene.simulate.step);
     let duration = s.duration.unwrap_or(scene.simulate.duration);
-    if !(step > 0.0 && step.is_finite()) {
-        return Err(format!("the step must be positive, got {step}"));
-    }
-    if !(duration >= 0.0 && duration.is_finite()) {
-        return Err(format!("the duration must be non-negative, got {duration}"));
-    }
+    crate::limits::check_run(step, duration)?;
+    crate::limits::check_method(&method)?;
     Ok(RunConfig {
         duration,
         step,

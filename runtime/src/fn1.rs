@@ -450,8 +450,21 @@ pub fn unary(u: UnaryFn, a: Jet2) -> Jet2 {
 }
 
 /// Check that `f` can be evaluated: tables non-empty with strictly increasing `x`,
-/// finite constants and parameters. Returns a description of the first problem.
+/// finite constants and parameters, elliptic parameters in `[0, 1]`, and the tree at most
+/// [`crate::limits::MAX_FN_DEPTH`] deep (evaluation is recursive). Returns a description
+/// of the first problem.
 pub fn validate(f: &Fn1) -> Result<(), String> {
+    validate_at(f, 1)
+}
+
+fn validate_at(f: &Fn1, depth: usize) -> Result<(), String> {
+    let max = crate::limits::MAX_FN_DEPTH;
+    if depth > max {
+        return Err(format!(
+            "the expression is nested too deeply (more than {max} levels)"
+        ));
+    }
+    let sub = |a: &Fn1| validate_at(a, depth + 1);
     let finite = |c: f64, what: &str| {
         if c.is_finite() {
             Ok(())
@@ -467,13 +480,13 @@ pub fn validate(f: &Fn1) -> Result<(), String> {
         | Fn1::Mul(a, b)
         | Fn1::Div(a, b)
         | Fn1::Min(a, b)
-        | Fn1::Max(a, b) => validate(a).and_then(|_| validate(b)),
-        Fn1::Neg(a) | Fn1::Unary(_, a) => validate(a),
-        Fn1::Powf(a, n) => finite(*n, "exponent").and_then(|_| validate(a)),
+        | Fn1::Max(a, b) => sub(a).and_then(|_| sub(b)),
+        Fn1::Neg(a) | Fn1::Unary(_, a) => sub(a),
+        Fn1::Powf(a, n) => finite(*n, "exponent").and_then(|_| sub(a)),
         Fn1::Smoothstep(a, x0, x1) => {
             finite(*x0, "smoothstep start")?;
             finite(*x1, "smoothstep end")?;
-            validate(a)
+            sub(a)
         }
         Fn1::Table(a, t) => {
             if t.is_empty() {
@@ -489,13 +502,13 @@ pub fn validate(f: &Fn1) -> Result<(), String> {
                     w[0][0], w[1][0]
                 ));
             }
-            validate(a)
+            sub(a)
         }
         Fn1::JacobiSn(a, m) | Fn1::JacobiCn(a, m) | Fn1::JacobiDn(a, m) => {
             if !(0.0..=1.0).contains(m) {
                 return Err(format!("elliptic parameter m = {m} must lie in [0, 1]"));
             }
-            validate(a)
+            sub(a)
         }
     }
 }

@@ -34,6 +34,7 @@ use crate::contact::{self, BoxPlane, ContactLaw, SpherePlane, SphereSphere, FRIC
 use crate::fn1::{self, Jet2};
 use crate::forces::{self, add_wrench, RotSpringGeom, SpringGeom};
 use crate::joints::{self, JointGeom, JointOut};
+use crate::limits;
 use crate::math::{quat, rotation, vec3};
 use crate::scene::{Attachment, BodyRef, Fn1, ForceFrame, ForceKind, JointKind, Scene, Shape};
 use crate::system::{
@@ -300,6 +301,58 @@ fn frame_axes(a: &Attachment) -> [[f64; 3]; 3] {
     [col(0), col(1), col(2)]
 }
 
+/// Whether `j_inv` is a usable inverse of `j`: finite, and `j · j_inv` within 10⁻⁶ of the
+/// identity (an inverse computed through an overflowing or underflowing determinant is not).
+fn inverse_ok(j: &Matrix3<f64>, j_inv: &Matrix3<f64>) -> bool {
+    j_inv.iter().all(|x| x.is_finite())
+        && (j * j_inv - Matrix3::identity())
+            .iter()
+            .all(|x| x.abs() <= 1e-6)
+}
+
+/// The checks on the scene as a whole, before anything is built: sizes against
+/// [`limits`], the simulation settings, the reference solution.
+fn check_scene(scene: &Scene) -> Result<(), InterpError> {
+    let scene_err = |reason: String| invalid("scene", &scene.name, reason);
+    for (what, n, max) in [
+        ("bodies", scene.bodies.len(), limits::MAX_BODIES),
+        ("joints", scene.joints.len(), limits::MAX_JOINTS),
+        ("force elements", scene.forces.len(), limits::MAX_FORCES),
+        ("contacts", scene.contacts.len(), limits::MAX_CONTACTS),
+    ] {
+        if n > max {
+            return Err(scene_err(format!(
+                "{n} {what}, more than the limit of {max}"
+            )));
+        }
+    }
+    let sim = &scene.simulate;
+    limits::check_run(sim.step, sim.duration).map_err(|e| scene_err(format!("simulate: {e}")))?;
+    limits::check_method(&sim.method).map_err(|e| scene_err(format!("simulate: {e}")))?;
+    if let Some(r) = &scene.reference {
+        let nb = scene.bodies.len();
+        for b in &r.bodies {
+            if b.body >= nb {
+                return Err(scene_err(format!(
+                    "the reference refers to body index {}, but the scene has {nb} bodies",
+                    b.body
+                )));
+            }
+            let name = &scene.bodies[b.body].name;
+            let fns = b
+                .position
+                .iter()
+                .flatten()
+                .chain(b.orientation.iter().flatten());
+            for f in fns {
+                fn1::validate(f)
+                    .map_err(|e| invalid("body", name, format!("reference trajectory: {e}")))?;
+            }
+        }
+    }
+    Ok(())
+}
+
 impl Interp {
     /// Build the interpreter for `scene` (see the module doc for what is checked).
     pub fn new(scene: &Scene) -> Result<Interp, InterpError> {
@@ -309,6 +362,7 @@ impl Interp {
         if let Some(m) = scene.meshes.first() {
             return Err(InterpError::Mesh(m.name.clone()));
         }
+        check_scene(scene)?;
         let nb = scene.bodies.len();
 
         // Bodies.
@@ -317,7 +371,7 @@ impl Interp {
         let mut twist0 = Vec::with_capacity(nb);
         for b in &scene.bodies {
             let name = &b.name;
-            if !(b.mass.is_finite() && b.mass > 0.0) {
+            if !(b.mass.is_finite() && b.mass > 0.0 && (1.0 / b.mass).is_finite()) {
                 return Err(invalid(
                     "body",
                     name,
@@ -348,6 +402,17 @@ impl Interp {
                     "body",
                     name,
                     "inertia tensor is not positive definite",
+                ));
+            }
+            if !inverse_ok(&j, &props.j_inv) {
+                return Err(invalid(
+                    "body",
+                    name,
+                    format!(
+                        "inertia tensor cannot be inverted in floating point (moments from {:e} to {:e} kg·m²)",
+                        j.diagonal().min(),
+                        j.diagonal().max()
+                    ),
                 ));
             }
             mass.push(props);

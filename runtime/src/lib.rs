@@ -27,6 +27,7 @@ pub mod forces;
 pub mod integrators;
 pub mod interp;
 pub mod joints;
+pub mod limits;
 pub mod linalg;
 pub mod math;
 pub mod output;

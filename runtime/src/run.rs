@@ -205,6 +205,11 @@ pub fn length_scale<S: System>(sys: &S) -> f64 {
 }
 
 /// Run `sys` from its initial state.
+///
+/// A step that is not positive and finite, a duration that is not finite and ≥ 0, or more
+/// than [`crate::limits::MAX_STEPS`] steps stop the run before its first frame, with a
+/// failure report ([`crate::limits::check_run`]); so does a method that cannot start
+/// ([`integrators::make`]).
 pub fn run<S: System>(sys: &S, cfg: &RunConfig, obs: &mut dyn Observer) -> RunReport {
     let layout = sys.layout();
     let mut h = cfg.step;
@@ -222,6 +227,18 @@ pub fn run<S: System>(sys: &S, cfg: &RunConfig, obs: &mut dyn Observer) -> RunRe
         max_energy_drift: 0.0,
         stats: Vec::new(),
     };
+    if let Err(cause) = crate::limits::check_run(cfg.step, cfg.duration) {
+        report.failure = Some(Failure {
+            time: 0.0,
+            step: 0,
+            location: "system".into(),
+            quantity: "start".into(),
+            value: f64::NAN,
+            cause,
+            hint: Some("give a positive, finite step and a finite duration".into()),
+        });
+        return report;
+    }
     let e0 = energy::kinetic_energy(layout, &start.twist) + sys.potential_energy(0.0, &start.pose);
     let pe0 = sys.potential_energy(0.0, &start.pose);
     let mut in_play: f64 = energy::kinetic_energy(layout, &start.twist);

@@ -712,13 +712,17 @@ pub struct StaggeredOptions {
 /// Evaluation of the gyroscopic term in the staggered update (see docs/methods.md).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 pub enum Gyroscopic {
-    /// The implicit midpoint rule within each sequence, `J(ω⁺ − ω)/h + ω̄ × Jω̄ = τ`,
-    /// solved per body: conserves a free body's energy and angular momentum exactly.
+    /// One leapfrog sequence with the implicit midpoint rule for the rotational kick,
+    /// `J(ω⁺ − ω)/h + ω̄ × Jω̄ = τ`, solved per body: conserves a free body's energy and angular
+    /// momentum exactly.
     #[default]
     Midpoint,
-    /// The paper's two-stage exchange: ω taken from the other sequence (C3 §IV.B). Its
-    /// computational mode grows on gyroscopically stabilized constrained systems (a heavy top).
+    /// The paper's two-stage scheme: two leapfrog sequences offset by h/2, each taking ω from
+    /// the other (C3 §IV.B). Their difference grows on gyroscopically stabilized constrained
+    /// systems (a heavy top), and on chaotic ones the two sequences decorrelate.
     Synchronous,
+    /// One sequence with the lagged ω^{n−1/2}: the conventional update (C3 eq. 41).
+    Lagged,
 }
 
 /// Discretization of the staggered method's λ equation (see docs/methods.md).

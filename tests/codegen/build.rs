@@ -1,5 +1,6 @@
-//! Generates the Rust of every rigid model in `models/`, in both code layouts, through the
-//! `build.rs` API, and a registry that visits each generated model.
+//! Generates the Rust of every rigid model in `models/` (and its subfolders) through the
+//! `build.rs` API — small scenes in both code layouts, large ones in the table layout they
+//! get by default — and a registry that visits each generated model.
 
 use std::fmt::Write as _;
 use std::path::PathBuf;
@@ -9,11 +10,19 @@ use mbdc_runtime::compiled::Mode;
 fn main() {
     let models = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../models");
     println!("cargo:rerun-if-changed={}", models.display());
-    let mut files: Vec<PathBuf> = std::fs::read_dir(&models)
-        .expect("models/")
-        .filter_map(|e| e.ok().map(|e| e.path()))
-        .filter(|p| p.extension().is_some_and(|e| e == "mbd"))
-        .collect();
+    let mut files = Vec::new();
+    let mut dirs = vec![models.clone()];
+    while let Some(d) = dirs.pop() {
+        println!("cargo:rerun-if-changed={}", d.display());
+        for e in std::fs::read_dir(&d).expect("models/").flatten() {
+            let p = e.path();
+            if p.is_dir() {
+                dirs.push(p);
+            } else if p.extension().is_some_and(|e| e == "mbd") {
+                files.push(p);
+            }
+        }
+    }
     files.sort();
     let out = PathBuf::from(std::env::var("OUT_DIR").expect("OUT_DIR"));
     let mut reg = String::new();
@@ -34,6 +43,7 @@ fn main() {
             let built = mbdc_compiler::Builder::new(f)
                 .module(&module)
                 .mode(mode)
+                .warnings(false) // redundant joints of models/hard are meant
                 .out_dir(&out)
                 .build();
             writeln!(reg, "include!({:?});", built.rs.display().to_string()).unwrap();

@@ -16,8 +16,18 @@ impl Observer for Quiet {
 }
 
 fn main() {
-    let methods = ["staggered", "baumgarte", "penalty", "coordinate_partitioning", "implicit_trapezoid", "natural_partitioning"];
-    let scenes = [("double_pendulum_3d.mbd", 1e-3, 2000u64), ("chain.mbd", 1e-4, 300)];
+    let methods = [
+        "staggered",
+        "baumgarte",
+        "penalty",
+        "coordinate_partitioning",
+        "implicit_trapezoid",
+        "natural_partitioning",
+    ];
+    let scenes = [
+        ("double_pendulum_3d.mbd", 1e-3, 2000u64),
+        ("chain.mbd", 1e-4, 300),
+    ];
     println!("| scene | method | µs/step | × staggered |");
     println!("|---|---|---|---|");
     for (file, h, steps) in scenes {
@@ -50,7 +60,11 @@ fn main() {
         for (k, m) in methods.iter().enumerate() {
             match &failed[k] {
                 Some(c) if !best[k].is_finite() => println!("| {name} | {m} | failed: {c} | |"),
-                _ => println!("| {name} | {m} | {:.2} | {:.2} |", best[k] * 1e6, best[k] / base),
+                _ => println!(
+                    "| {name} | {m} | {:.2} | {:.2} |",
+                    best[k] * 1e6,
+                    best[k] / base
+                ),
             }
         }
     }

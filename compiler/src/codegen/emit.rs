@@ -123,6 +123,7 @@ impl Ctx<'_> {
 }
 
 /// The kernel call of one row group.
+#[allow(clippy::too_many_arguments)]
 fn joint_call(
     cx: &Ctx<'_>,
     combo: &JointCombo,
@@ -731,7 +732,7 @@ pub fn file(
     let d_binding = quote!(let d = plan.data;);
     let mod_docs = doc.iter().map(|d| quote!(#![doc = #d]));
     quote! {
-        #[allow(unused_imports, unused_variables, unused_mut, dead_code, non_snake_case, clippy::all)]
+        #[allow(unused_imports, unused_variables, unused_mut, unused_parens, dead_code, non_snake_case, clippy::all)]
         pub mod #module_ident {
             #(#mod_docs)*
             #(#uses)*

@@ -335,11 +335,12 @@ impl<'a> Lowerer<'a> {
                 o.gyroscopic = match ident_of(v) {
                     Some("midpoint") => Gyroscopic::Midpoint,
                     Some("synchronous") => Gyroscopic::Synchronous,
+                    Some("lagged") => Gyroscopic::Lagged,
                     _ => {
                         return Err(self.report(
                             Diagnostic::error(
                                 codes::WRONG_KIND,
-                                "`gyroscopic` is `midpoint` or `synchronous`",
+                                "`gyroscopic` is `midpoint`, `synchronous` or `lagged`",
                             )
                             .primary(sc.file, v.span, ""),
                         ))

@@ -62,13 +62,40 @@ impl State {
 }
 
 /// Build the integrator for `method` with step `h`, starting from `start`.
+///
+/// Refused up front ([`StartError::Invalid`]): a step that is not positive and finite,
+/// options out of range ([`crate::limits::check_method`]), and a dense method
+/// (`coordinate_partitioning`, `implicit_trapezoid`) on a system of more than
+/// [`crate::limits::MAX_DENSE_UNKNOWNS`] unknowns.
 pub fn make<'a, S: System + 'a>(
     method: &crate::scene::MethodSpec,
     sys: &S,
     h: f64,
     start: &State,
 ) -> Result<Box<dyn Integrator<S> + 'a>, StartError> {
+    use crate::limits;
     use crate::scene::MethodSpec as M;
+    if !(h.is_finite() && h > 0.0) {
+        return Err(StartError::Invalid(format!(
+            "the step must be positive and finite, got {h}"
+        )));
+    }
+    limits::check_method(method).map_err(StartError::Invalid)?;
+    if matches!(
+        method,
+        M::CoordinatePartitioning | M::ImplicitTrapezoid { .. }
+    ) {
+        let l = sys.layout();
+        let n = 6 * l.bodies() + l.rows;
+        if n > limits::MAX_DENSE_UNKNOWNS {
+            return Err(StartError::Invalid(format!(
+                "{} is a dense method and this system has {n} unknowns (6 per body and {} constraint rows), more than its limit of {}: use staggered or natural_partitioning",
+                method.name(),
+                l.rows,
+                limits::MAX_DENSE_UNKNOWNS
+            )));
+        }
+    }
     Ok(match method {
         M::Staggered(o) => Box::new(staggered::TwoStage::staggered(sys, h, o, start)?),
         M::Baumgarte { alpha, beta } => Box::new(staggered::TwoStage::baumgarte(
@@ -99,6 +126,9 @@ pub enum StartError {
     /// The method is not available in this runtime.
     #[error("method `{0}` is not available yet")]
     Unsupported(&'static str),
+    /// The step, the method's options or the system's size are out of range.
+    #[error("{0}")]
+    Invalid(String),
     /// The initial state could not be processed.
     #[error(transparent)]
     Step(#[from] StepError),

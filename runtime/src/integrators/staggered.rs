@@ -5,8 +5,8 @@
 //! comparison of the constraint treatment alone.
 //!
 //! ## CINT (notes A §1.8–1.9, C §3.5)
-//! Two leapfrog sequences are kept, offset by h/2. At each half-step time τ, the sequence X
-//! whose positions are at τ (its velocities are at τ − h/2) is advanced by a full step h:
+//! The coordinates are advanced by the explicit central-difference (leapfrog) update: at
+//! each step the positions at τ and the velocities at τ − h/2 become
 //!
 //! `u̇ ← u̇ + h M⁻¹(Q̄ − Bᵀλ)`, `r ← r + h v`, `q ← cayley(q, ω, h)`,
 //!
@@ -14,21 +14,31 @@
 //! `Δ = 1 + h²|ω|²/16` ([`crate::math::cayley_update`]) and `Q̄ = F − ω × Jω`.
 //!
 //! The gyroscopic term must be evaluated at a synchronous ω: extrapolating it explicitly "can
-//! lead quickly to computational instability" (C3 §IV.B, Fig. 7). The paper's remedy is the
-//! two-stage exchange: each sequence takes ω from the other, which is at τ exactly
-//! ([`Gyroscopic::Synchronous`]). That exchange is the only coupling between the two sequences,
-//! and their difference (the leapfrog's computational mode) sees it with the opposite sign
-//! while the kinematics through the constraints keeps its own: on a gyroscopically stabilized
-//! constrained system — a heavy top on its tip — that mode grows at the rate the top would fall
-//! without spin (≈ 9 /s), whatever the step, and the top falls over within 2 s. The default
-//! ([`Gyroscopic::Midpoint`]) evaluates the term by the implicit midpoint rule inside each
-//! sequence, `J(ω⁺ − ω)/h + ω̄ × Jω̄ = τ − (Bᵀλ)_ω` with `ω̄ = (ω + ω⁺)/2`, solved per body by a
-//! 3×3 Newton iteration: the sequences no longer exchange anything, the top precesses to
-//! 1e-3° of theory, and a free body's energy and angular momentum are conserved to round-off
-//! (the midpoint rule conserves quadratic invariants). Damping forces use the sequence's own,
-//! lagged velocity (with the other sequence's velocity the leapfrog is unstable for any damping,
-//! notes A §1.9; lagged, it is stable for `c·h < 2`). `single_stage` keeps one sequence and the
-//! lagged ω (the conventional update, C3 eq. 41), for the comparison of C3 Fig. 7.
+//! lead quickly to computational instability" (C3 §IV.B, Fig. 7). Three treatments, chosen by
+//! [`Gyroscopic`]:
+//! - [`Gyroscopic::Midpoint`] (default): one leapfrog sequence, and the rotational kick by
+//!   the implicit midpoint rule `J(ω⁺ − ω)/h + ω̄ × Jω̄ = τ − (Bᵀλ)_ω`, `ω̄ = (ω + ω⁺)/2`,
+//!   solved per body by a 3×3 Newton iteration. A free body's energy and angular momentum
+//!   are conserved to round-off (the midpoint rule conserves quadratic invariants), and the
+//!   heavy top precesses to 1e-3° of theory.
+//! - [`Gyroscopic::Synchronous`]: the paper's two-stage scheme, two sequences offset by h/2,
+//!   each advanced by a full step at its own half-step times and taking ω from the other,
+//!   which is at τ exactly. The exchange is the only coupling between the sequences, and
+//!   their difference (the leapfrog's computational mode) sees it with the opposite sign
+//!   while the kinematics through the constraints keeps its own: on a gyroscopically
+//!   stabilized constrained system (a heavy top on its tip) that mode grows at the rate the
+//!   top would fall without spin (≈ 9 /s), whatever the step, and the top falls over within
+//!   2 s. On a chaotic system (the 3-D double pendulum) the two weakly coupled sequences
+//!   also decorrelate after ~100 s: each is a good trajectory, but their mix is not, and the
+//!   energy error jumps from 1e-4 J to ~9 J. This is why the default keeps one sequence.
+//! - [`Gyroscopic::Lagged`]: one sequence with the lagged ω^{n−1/2}, the conventional update
+//!   (C3 eq. 41), kept for the comparison of C3 Fig. 7.
+//!
+//! With one sequence the velocities live at half steps; the output velocity at τ is the
+//! second-order extrapolation `1.5 v(τ − h/2) − 0.5 v(τ − 3h/2)`, so reported velocities and
+//! energies are synchronous with the positions. Damping forces use the lagged velocity (with
+//! a velocity from the future the leapfrog is unstable for any damping, notes A §1.9;
+//! lagged, it is stable for `c·h < 2`).
 //!
 //! ## LINT: the staggered stabilization (default, [`LintForm::Exact`])
 //! The method regularizes the constraints by the penalty law `λ = Φ/ε` and integrates
@@ -107,7 +117,8 @@ pub struct TwoStage {
     law: Law,
     name: &'static str,
     h: f64,
-    single_stage: bool,
+    /// One leapfrog sequence (the default and the conventional update), or the paper's two.
+    one_sequence: bool,
     paper_literal: bool,
     epsilon: f64,
     /// Regularization per row (ε holonomic, εh nonholonomic).
@@ -118,6 +129,8 @@ pub struct TwoStage {
     regularized_steps: u64,
     /// Gyroscopic term by the implicit midpoint rule inside each sequence.
     midpoint_gyro: bool,
+    /// One sequence: its velocities at the previous half step (for synchronized output).
+    vel_prev: Vec<Twist>,
     tau: f64,
     t0: f64,
     half_steps: u64,
@@ -164,9 +177,15 @@ impl TwoStage {
         opts: &StaggeredOptions,
         start: &State,
     ) -> Result<TwoStage, StartError> {
+        // `single_stage` is the conventional update (C3 eq. 41): the lagged gyroscopic term.
+        let gyroscopic = if opts.single_stage {
+            Gyroscopic::Lagged
+        } else {
+            opts.gyroscopic
+        };
         let law = Law::Staggered {
             lint: opts.lint,
-            gyroscopic: opts.gyroscopic,
+            gyroscopic,
         };
         TwoStage::new(
             sys,
@@ -174,7 +193,6 @@ impl TwoStage {
             law,
             "staggered",
             opts.epsilon,
-            opts.single_stage,
             opts.paper_literal,
             start,
         )
@@ -195,7 +213,6 @@ impl TwoStage {
             "baumgarte",
             None,
             false,
-            false,
             start,
         )
     }
@@ -207,16 +224,7 @@ impl TwoStage {
         epsilon: Option<f64>,
         start: &State,
     ) -> Result<TwoStage, StartError> {
-        TwoStage::new(
-            sys,
-            h,
-            Law::Penalty,
-            "penalty",
-            epsilon,
-            false,
-            false,
-            start,
-        )
+        TwoStage::new(sys, h, Law::Penalty, "penalty", epsilon, false, start)
     }
 
     #[allow(clippy::too_many_arguments)]
@@ -226,7 +234,6 @@ impl TwoStage {
         law: Law,
         name: &'static str,
         epsilon: Option<f64>,
-        single_stage: bool,
         paper_literal: bool,
         start: &State,
     ) -> Result<TwoStage, StartError> {
@@ -314,23 +321,23 @@ impl TwoStage {
             seq_a.pose[i] = common::rotate_body(&pose[i], dr, phi);
         }
 
-        // The gyroscopic term: by the implicit midpoint rule inside each sequence (default),
-        // from the other sequence (the paper's two-stage exchange), or lagged (single stage).
-        let midpoint_gyro = !single_stage
-            && !matches!(
-                law,
-                Law::Staggered {
-                    gyroscopic: Gyroscopic::Synchronous,
-                    ..
-                }
-            );
+        // One sequence with the gyroscopic term by the implicit midpoint rule (default, and
+        // for Baumgarte and penalty); the paper's two sequences exchanging ω; or one sequence
+        // with the lagged ω (the conventional update).
+        let gyro = match law {
+            Law::Staggered { gyroscopic, .. } => gyroscopic,
+            _ => Gyroscopic::Midpoint,
+        };
+        let one_sequence = gyro != Gyroscopic::Synchronous;
+        let midpoint_gyro = gyro == Gyroscopic::Midpoint;
         let mut s = TwoStage {
             law,
             name,
             h,
-            single_stage,
+            one_sequence,
             paper_literal,
             epsilon,
+            vel_prev: vel.clone(),
             e_eff: e.clone(),
             lambda_guess: vec![0.0; m],
             regularized_steps: 0,
@@ -696,7 +703,7 @@ impl TwoStage {
                 ..
             } => {
                 self.lambda_prev.copy_from_slice(&self.lambda);
-                let lam_step = if self.single_stage {
+                let lam_step = if self.one_sequence {
                     self.h
                 } else {
                     self.h / 2.0
@@ -746,7 +753,7 @@ impl TwoStage {
     }
 
     fn check_locks<S: System>(&mut self, sys: &S) {
-        let vel_seq = if self.single_stage {
+        let vel_seq = if self.one_sequence {
             self.x
         } else {
             1 - self.x
@@ -864,7 +871,8 @@ impl<S: System> Integrator<S> for TwoStage {
 
     fn step(&mut self, sys: &S) -> Result<StepInfo, StepError> {
         let mut iterations = 0;
-        if self.single_stage {
+        if self.one_sequence {
+            self.vel_prev.copy_from_slice(&self.seq[0].vel);
             iterations += self.advance(sys, 0, 0)?;
             self.half_steps += 2;
             self.tau = self.t0 + self.half_steps as f64 * self.h / 2.0;
@@ -885,18 +893,14 @@ impl<S: System> Integrator<S> for TwoStage {
         let layout = sys.layout();
         out.t = self.tau;
         out.pose.copy_from_slice(&self.seq[self.x].pose);
-        if self.single_stage {
-            // velocity at t: the lagged one plus half a step of the last acceleration
+        if self.one_sequence {
+            // the sequence has velocities at t − h/2 (and had them at t − 3h/2): extrapolate to
+            // t to second order, v(t) ≈ (3v(t − h/2) − v(t − 3h/2))/2
             for i in 0..layout.bodies() {
-                let net = Wrench {
-                    f: self.qbar[i].f - self.flam[i].f,
-                    t: self.qbar[i].t - self.flam[i].t,
-                };
-                let a = accel(&layout.mass[i], &net);
-                let v = self.seq[0].vel[i];
+                let (v1, v0) = (self.seq[0].vel[i], self.vel_prev[i]);
                 out.twist[i] = Twist {
-                    v: v.v - a.v * (self.h / 2.0),
-                    w: v.w - a.w * (self.h / 2.0),
+                    v: v1.v * 1.5 - v0.v * 0.5,
+                    w: v1.w * 1.5 - v0.w * 0.5,
                 };
             }
         } else {
@@ -904,7 +908,7 @@ impl<S: System> Integrator<S> for TwoStage {
         }
         // λ was last computed at tau_lambda (h/2 or h before t): extrapolate linearly.
         let dt = self.tau - self.tau_lambda;
-        let gap = if self.single_stage {
+        let gap = if self.one_sequence {
             self.h
         } else {
             self.h / 2.0

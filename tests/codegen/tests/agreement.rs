@@ -80,12 +80,12 @@ impl Visitor for Agree {
                         continue;
                     }
                     let rel = (x - y).abs() / x.abs().max(y.abs());
-                    if !(rel <= worst.0) {
+                    if rel.is_nan() || rel > worst.0 {
                         worst = (rel, k, i);
                     }
                 }
             }
-            if !(worst.0 <= 1e-12) {
+            if worst.0.is_nan() || worst.0 > 1e-12 {
                 self.failures.push(format!(
                     "{what}: relative difference {:.3e} at frame {} value {}",
                     worst.0, worst.1, worst.2

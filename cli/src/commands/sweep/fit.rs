@@ -14,12 +14,12 @@
 //!    below 0.5 are dropped as *stalled* (a floor the rules above did not know: a
 //!    regularization parameter, a tolerance). The threshold is far below any method's
 //!    theoretical order so that a genuinely low order is measured, not hidden;
-//! 6. it is outside the *asymptotic range*: the local order of the finest two remaining
-//!    runs is the best estimate of the asymptotic order; walking towards coarser runs,
-//!    once the local order of a pair differs from it by more than 0.3, that pair's coarser
-//!    run and all coarser ones are left out. (Two error terms of different order and sign
-//!    can cancel at moderate steps and make the error fall "too fast" for a while; such
-//!    runs say nothing about the order.)
+//! 6. it is outside the *asymptotic range*: the longest run of consecutive local orders
+//!    (the slopes between neighbouring runs) that all lie within 0.3 of their median — the
+//!    finer one when two are as long. Two error terms of different order and sign can
+//!    cancel at moderate steps and make the error fall "too fast" or "too slowly" for a
+//!    while, and the finest pair can feel the reference's own error; such runs say nothing
+//!    about the order.
 //!
 //! At least two runs must remain. The fit is thus made over the finest runs that agree
 //! with each other, which is what a convergence order means; sweep fine enough steps
@@ -102,6 +102,30 @@ fn slope(a: (f64, f64), b: (f64, f64)) -> f64 {
     (a.1.ln() - b.1.ln()) / (a.0.ln() - b.0.ln())
 }
 
+/// The longest range `a..=b` of local orders (between `kept[i]` and `kept[i + 1]`) that all
+/// lie within 0.3 of their median; the finest of equally long ranges.
+fn asymptotic_window(kept: &[(f64, f64)]) -> (usize, usize) {
+    let local: Vec<f64> = kept.windows(2).map(|w| slope(w[0], w[1])).collect();
+    let n = local.len();
+    let mut best = (n - 1, n - 1);
+    for a in 0..n {
+        for b in a..n {
+            let mut w = local[a..=b].to_vec();
+            w.sort_by(f64::total_cmp);
+            let med = if w.len() % 2 == 1 {
+                w[w.len() / 2]
+            } else {
+                0.5 * (w[w.len() / 2 - 1] + w[w.len() / 2])
+            };
+            let ok = w.iter().all(|p| (p - med).abs() <= 0.3);
+            if ok && b - a >= best.1 - best.0 {
+                best = (a, b);
+            }
+        }
+    }
+    best
+}
+
 /// Least-squares slope of ln(e) on ln(h).
 pub fn least_squares(points: &[(f64, f64)]) -> Option<f64> {
     if points.len() < 2 {
@@ -168,16 +192,13 @@ pub fn fit(points: &[Point], rules: &Rules) -> Fit {
         }
     }
     if kept.len() >= 3 {
-        let n = kept.len();
-        let p_fine = slope(kept[n - 2], kept[n - 1]);
-        if let Some(i) = (0..n - 2)
-            .rev()
-            .find(|&i| (slope(kept[i], kept[i + 1]) - p_fine).abs() > 0.3)
-        {
-            for p in kept.drain(..=i) {
+        let (a, b) = asymptotic_window(&kept);
+        for (i, p) in kept.iter().enumerate() {
+            if i < a || i > b + 1 {
                 excluded.push((p.0, Excluded::NotAsymptotic));
             }
         }
+        kept = kept[a..=b + 1].to_vec();
     }
     excluded.sort_by(|a, b| b.0.total_cmp(&a.0));
     Fit {
@@ -239,6 +260,10 @@ mod tests {
             );
             assert!(f.used.len() >= 5, "{f:?}");
         }
+        // the finest pair feels a floor (local order 1.6): the range before it counts
+        let f = fit(&pts(&hs, |h| h * h + 3e-9), &RULES);
+        assert!((f.order.expect("order") - 2.0).abs() < 0.05, "{f:?}");
+        assert!(f.used.len() >= 7, "{f:?}");
     }
 
     #[test]

@@ -71,7 +71,11 @@ pub fn csv(r: &SweepResult) -> String {
             num(e.rot_final),
             num(e.rot_max),
             format!("{:e}", o.max_violation),
-            format!("{:e}", o.energy_drift),
+            if r.energy_sources {
+                String::new()
+            } else {
+                format!("{:e}", o.energy_drift)
+            },
             num(o.iterations),
             o.steps.to_string(),
             format!("{:e}", o.t_end),
@@ -161,7 +165,7 @@ pub fn json(r: &SweepResult) -> serde_json::Value {
                 "rot_err_final_rad": e.rot_final,
                 "rot_err_max_rad": e.rot_max,
                 "max_violation": o.max_violation,
-                "energy_drift": o.energy_drift,
+                "energy_drift": (!r.energy_sources).then_some(o.energy_drift),
                 "iterations_mean": o.iterations,
                 "steps": o.steps,
                 "t_reached_s": o.t_end,
@@ -181,6 +185,7 @@ pub fn json(r: &SweepResult) -> serde_json::Value {
         "measure": r.measure.short(),
         "secondary_measure": r.secondary.map(Measure::short),
         "length_scale_m": r.length_scale,
+        "energy_sources": r.energy_sources,
         "reference": reference,
         "methods": methods,
         "cost_at": TARGETS.iter().map(|t| json!({
@@ -218,7 +223,7 @@ pub fn markdown(r: &SweepResult) -> String {
         };
         let _ = writeln!(
             s,
-            "| {} | {} | {} | {:.2e} | {} | {} | {} | {} | {} | {:.2e} | {:.2e} | {} |",
+            "| {} | {} | {} | {:.2e} | {} | {} | {} | {} | {} | {:.2e} | {} | {} |",
             r.methods[run.method].name,
             short_sci(run.step),
             status,
@@ -229,7 +234,7 @@ pub fn markdown(r: &SweepResult) -> String {
             sci(e.rot_final),
             sci(e.rot_max),
             o.max_violation,
-            o.energy_drift,
+            sci((!r.energy_sources).then_some(o.energy_drift)),
             o.iterations.map_or("—".into(), |i| format!("{i:.2}")),
         );
     }
@@ -661,8 +666,13 @@ pub fn write_all(r: &SweepResult, dir: &Path) -> Result<(), String> {
     }
     println!("Reference: {}.", reference_text(r));
     println!(
-        "Errors: RMS over bodies of |r − r_ref| (m) and of the rotation angle of q_ref⁻¹q (rad), at the final time and the maximum over the frames. CPU time: best of the repetitions.\n"
+        "Errors: RMS over bodies of |r − r_ref| (m) and of the rotation angle of q_ref⁻¹q (rad), at the final time and the maximum over the frames. CPU time: best of the repetitions. Max violation: largest |Φ| over the compared frames."
     );
+    if r.energy_sources {
+        println!("Energy drift: not reported, the scene has energy sources (applied forces, drivers, contact).\n");
+    } else {
+        println!("Energy drift: largest |E − E₀| / E_ref over the compared frames (E_ref: the energy in play).\n");
+    }
     print!("{}", markdown(r));
     println!(
         "\nConvergence order (least-squares slope of log error on log h, {}):",
@@ -757,6 +767,7 @@ mod tests {
             measure: Measure::PosMax,
             secondary: None,
             length_scale: 1.0,
+            energy_sources: false,
             fits: vec![],
         }
     }

@@ -336,9 +336,10 @@ pub fn guarded<T>(f: impl FnOnce() -> T) -> Result<T, String> {
 
 /// The run driver's watchdog for a scene, as `mbdc run` sets it.
 pub fn watchdog<S: mbdc_runtime::system::System>(sys: &S, scene: &Scene) -> Watchdog {
-    let e = scene.effects();
-    let sources = e.applied_forces || e.drivers || e.nonholonomic || e.contact || e.time_dependence;
-    Watchdog::for_scale(run::length_scale(sys), sources)
+    Watchdog::for_scale(
+        run::length_scale(sys),
+        mbdc_runtime::app::energy_sources(scene),
+    )
 }
 
 impl Runner for InterpRunner {

@@ -696,6 +696,7 @@ pub(crate) mod tests {
     }
 
     /// The kernel rows of a tree-eligible joint.
+    #[allow(clippy::too_many_arguments)]
     pub(crate) fn kernel(
         kind: TreeJointKind,
         g: &JointGeom,

@@ -1,0 +1,361 @@
+//! The hard-case suite (issue 7): scenes under `models/hard/` (and the deployment arm), each
+//! run with every method. Each test says what "stable" means for it and checks it; a method
+//! that cannot do a case must stop with a report that names where and why — a run that
+//! finishes silently wrong is the one outcome not allowed. docs/stability.md summarizes them.
+
+use mbdc_runtime::scene::{Gyroscopic, MethodSpec, StaggeredOptions};
+use mbdc_tests::*;
+use nalgebra::Vector3;
+
+const ALL: [&str; 6] = [
+    "staggered",
+    "baumgarte",
+    "penalty",
+    "coordinate_partitioning",
+    "implicit_trapezoid",
+    "natural_partitioning",
+];
+
+/// Every method either meets `ok` or stops with a report naming a body, a joint or the system.
+fn each_method(
+    model: &str,
+    h: f64,
+    duration: f64,
+    ok: impl Fn(&str, &Trajectory) -> Result<(), String>,
+) -> Vec<(&'static str, bool)> {
+    let scene = load_model(model);
+    let mut out = Vec::new();
+    for name in ALL {
+        let tr = simulate(&scene, method(name), h, duration, 10);
+        let good = match &tr.report.failure {
+            None => {
+                if let Err(why) = ok(name, &tr) {
+                    panic!("{model}: {name} finished but {why}");
+                }
+                true
+            }
+            Some(f) => {
+                assert!(
+                    !f.location.is_empty() && !f.cause.is_empty() && f.hint.is_some(),
+                    "{model}: {name}: {f}"
+                );
+                eprintln!("{model}: {name} stopped: {f}");
+                false
+            }
+        };
+        out.push((name, good));
+    }
+    out
+}
+
+fn passed(results: &[(&str, bool)], name: &str) -> bool {
+    results.iter().any(|(n, ok)| *n == name && *ok)
+}
+
+/// Case 1 (links that line up): the parallelogram four-bar turns through its flat (change-point)
+/// configuration twice per revolution, where B loses rank. Reference: with no forces it turns at
+/// its initial rate, θ(t) = θ₀ + ωt exactly. Stable means: the crank angle within 1e-6 rad of
+/// θ₀ + ωt over 10 s (6 flat passages) and |Φ| < 1e-7 for `staggered` and `natural_partitioning`
+/// (required); any other method that finishes must stay within 1e-2 rad and |Φ| < 1e-2.
+#[test]
+fn toggle_four_bar_through_its_flat_configuration() {
+    let w = 2.0;
+    let results = each_method("hard/toggle_four_bar.mbd", 1e-3, 10.0, |name, tr| {
+        let strict = matches!(name, "staggered" | "natural_partitioning");
+        let (tol_angle, tol_phi) = if strict { (1e-6, 1e-7) } else { (1e-2, 1e-2) };
+        for f in &tr.frames {
+            // crank axis (body y, from the pivot to the pin) in world: angle from +x
+            let a = f.pose[0].c * Vector3::y();
+            let th = a.y.atan2(a.x);
+            let exact = std::f64::consts::FRAC_PI_2 + w * f.t;
+            let err = (th - exact).sin().abs();
+            if err > tol_angle {
+                return Err(format!("crank angle off by {err:.2e} rad at t = {}", f.t));
+            }
+        }
+        (tr.max_violation() < tol_phi)
+            .then_some(())
+            .ok_or(format!("|Φ| = {:.2e}", tr.max_violation()))
+    });
+    assert!(
+        passed(&results, "staggered") && passed(&results, "natural_partitioning"),
+        "{results:?}"
+    );
+}
+
+/// Case 2 (redundant constraints): a planar four-bar of spatial revolutes (3 dependent rows
+/// everywhere) and a door on two coaxial hinges (5 dependent rows). Reference: the same motion
+/// without the redundancy — the door on one hinge; the four-bar's crank angle from the same run
+/// with spherical/universal joints at the coupler is not comparable geometrically, so for it the
+/// reference is energy conservation (no dissipation, no sources) and |Φ|. Stable means for
+/// `staggered` and `natural_partitioning` (required): |Φ| < 1e-10, energy within 1e-3 of the
+/// energy in play over 5 s, and the door within 1e-9 m of the one-hinge door. The Lagrange-
+/// multiplier methods (Baumgarte, trapezoid, coordinate partitioning) must stop at once with a
+/// report naming a joint, since B M⁻¹ Bᵀ is singular.
+#[test]
+fn redundant_loops_simulate_and_are_reported() {
+    for model in ["hard/planar_four_bar.mbd", "hard/door.mbd"] {
+        let results = each_method(model, 1e-3, 5.0, |name, tr| {
+            if matches!(name, "staggered" | "natural_partitioning") {
+                let scale = tr.frames.iter().fold(0.0f64, |a, f| a.max(f.kinetic));
+                let de = tr.max_energy_error() / scale;
+                if tr.max_violation() > 1e-10 || de > 1e-3 {
+                    return Err(format!(
+                        "|Φ| = {:.2e}, energy error {de:.2e}",
+                        tr.max_violation()
+                    ));
+                }
+            }
+            Ok(())
+        });
+        assert!(
+            passed(&results, "staggered") && passed(&results, "natural_partitioning"),
+            "{model}: {results:?}"
+        );
+        for m in ["baumgarte", "implicit_trapezoid", "coordinate_partitioning"] {
+            assert!(
+                !passed(&results, m),
+                "{model}: {m} should stop on a singular B M⁻¹ Bᵀ"
+            );
+        }
+    }
+    // the door on two hinges moves exactly like the door on one
+    let two = load_model("hard/door.mbd");
+    let text = std::fs::read_to_string(model_path("hard/door.mbd")).unwrap();
+    let one = load_text(
+        &text
+            .lines()
+            .filter(|l| !l.contains("joint lower"))
+            .collect::<Vec<_>>()
+            .join("\n"),
+    );
+    let a = simulate(&two, method("staggered"), 1e-3, 5.0, 100);
+    let b = simulate(&one, method("staggered"), 1e-3, 5.0, 100);
+    let gap = a
+        .frames
+        .iter()
+        .zip(&b.frames)
+        .fold(0.0f64, |m, (x, y)| m.max(position_difference(x, y)));
+    eprintln!("door on two hinges vs one: {gap:.2e} m");
+    assert!(gap < 1e-9, "{gap}");
+}
+
+/// Case 3a (fast spin): a free body spinning at 1900 rad/s about its major axis with h = 1 ms
+/// (h·ω = 1.9, just below the explicit limit 2). Stable means: energy and |L| conserved to 1e-10
+/// relative over 10 s for `staggered` (its midpoint gyroscopic update conserves both exactly)
+/// and the wobble bounded (|ω₁| + |ω₂| never above 10× its start); every method that finishes
+/// must keep energy within 5 % (measured: coordinate partitioning 1.5e-6, the trapezoid 8e-8).
+#[test]
+fn fast_spin_near_the_stability_limit() {
+    let results = each_method("hard/fast_spin.mbd", 1e-3, 10.0, |name, tr| {
+        let e0 = tr.frames[0].energy();
+        let l0 = Vector3::from(tr.frames[0].angular_momentum).norm();
+        let de = tr.max_energy_error() / e0;
+        let dl = tr.frames.iter().fold(0.0f64, |a, f| {
+            a.max((Vector3::from(f.angular_momentum).norm() - l0).abs() / l0)
+        });
+        let w0 = tr.frames[0].twist[0].w.x.abs() + tr.frames[0].twist[0].w.y.abs();
+        let wobble = tr.frames.iter().fold(0.0f64, |a, f| {
+            a.max(f.twist[0].w.x.abs() + f.twist[0].w.y.abs())
+        });
+        eprintln!(
+            "fast spin {name}: energy {de:.2e}, |L| {dl:.2e}, wobble ×{:.2}",
+            wobble / w0
+        );
+        let bound = if name == "staggered" { 1e-10 } else { 5e-2 };
+        if de > bound || (name == "staggered" && dl > 1e-10) || wobble > 10.0 * w0 {
+            return Err(format!(
+                "energy {de:.2e}, |L| {dl:.2e}, wobble ×{:.1}",
+                wobble / w0
+            ));
+        }
+        Ok(())
+    });
+    assert!(passed(&results, "staggered"), "{results:?}");
+}
+
+/// Case 3b (spinning top with gravity): started in exact steady precession (models/hard/top.mbd).
+/// Reference: the heavy-top theory, tilt constant at 30° and precession rate Ω from
+/// m g l = Ω(C n − A'Ω cos θ) (≈ 2.632 rad/s). Stable means for `staggered` at h = 0.5 ms: the
+/// tilt within 1e-3° of 30° over 5 s (no nutation), the measured precession rate within 1e-4 of
+/// Ω. The paper's two-stage exchange of ω (`gyroscopic synchronous`) fails here — the top falls
+/// past 90° within 5 s — which is why it is not the default (docs/methods.md).
+#[test]
+fn heavy_top_precesses_as_theory_says() {
+    let scene = load_model("hard/top.mbd");
+    let (m, l, a, c, g, th, n) = (
+        1.0f64,
+        0.1f64,
+        0.002f64,
+        0.004f64,
+        9.81f64,
+        30f64.to_radians(),
+        100.0f64,
+    );
+    let ap = a + m * l * l;
+    let omega =
+        (c * n - (c * c * n * n - 4.0 * ap * th.cos() * m * g * l).sqrt()) / (2.0 * ap * th.cos());
+    let tilt = |f: &Rec| (f.pose[0].c * Vector3::z()).z.acos().to_degrees();
+    let tr = simulate(&scene, method("staggered"), 5e-4, 5.0, 20);
+    assert!(tr.report.finished, "{:?}", tr.report.failure);
+    let worst = tr
+        .frames
+        .iter()
+        .fold(0.0f64, |a, f| a.max((tilt(f) - 30.0).abs()));
+    // precession: azimuth of the axis, unwrapped, fitted over the run
+    let az: Vec<f64> = tr
+        .frames
+        .iter()
+        .map(|f| {
+            let e = f.pose[0].c * Vector3::z();
+            e.y.atan2(e.x)
+        })
+        .collect();
+    let mut unwrapped = vec![az[0]];
+    for k in 1..az.len() {
+        let mut d = az[k] - az[k - 1];
+        while d > std::f64::consts::PI {
+            d -= std::f64::consts::TAU;
+        }
+        while d < -std::f64::consts::PI {
+            d += std::f64::consts::TAU;
+        }
+        unwrapped.push(unwrapped[k - 1] + d);
+    }
+    let rate = (unwrapped.last().unwrap() - unwrapped[0]) / (tr.last().t - tr.frames[0].t);
+    eprintln!("top: tilt within {worst:.2e}°, precession {rate:.6} rad/s, theory {omega:.6} (relative {:.1e})", (rate - omega).abs() / omega);
+    assert!(worst < 1e-3, "{worst}");
+    assert!((rate - omega).abs() < 1e-4 * omega, "{rate} vs {omega}");
+    // the paper's exchange
+    let o = StaggeredOptions {
+        gyroscopic: Gyroscopic::Synchronous,
+        ..Default::default()
+    };
+    let tr = simulate(&scene, MethodSpec::Staggered(o), 5e-4, 5.0, 20);
+    let fell = tr.frames.iter().fold(0.0f64, |a, f| a.max(tilt(f)));
+    eprintln!("top with the paper's two-stage exchange: tilt reaches {fell:.1}°");
+    assert!(
+        fell > 90.0,
+        "the synchronous exchange kept the top up ({fell}°): revisit docs/methods.md"
+    );
+}
+
+/// Case 4 (mass ratios): a chain of ten links from 1 g to 1 t (models/hard/mass_ratio_chain.mbd).
+/// Stable means for `staggered` at the model's step (20 µs): |Φ| < 1e-9 and energy within 1e-7 of
+/// the largest kinetic energy over 2 s; the trapezoid at 100 µs the same. At 200 µs the explicit
+/// methods are beyond the stability limit of the light link in tension (see the model) and must
+/// stop with a report — which `--on-failure halve-step` turns into a finished run.
+#[test]
+fn mass_ratio_chain() {
+    let scene = load_model("hard/mass_ratio_chain.mbd");
+    for (name, h) in [("staggered", 2e-5), ("implicit_trapezoid", 1e-4)] {
+        let tr = simulate(&scene, method(name), h, 2.0, 100);
+        assert!(tr.report.finished, "{name}: {:?}", tr.report.failure);
+        let scale = tr.frames.iter().fold(0.0f64, |a, f| a.max(f.kinetic));
+        let de = tr.max_energy_error() / scale;
+        eprintln!(
+            "mass ratio chain, {name} at {h:e} s: |Φ| {:.2e}, energy {de:.2e}",
+            tr.max_violation()
+        );
+        assert!(tr.max_violation() < 1e-9 && de < 1e-7, "{name}");
+    }
+    let coarse = simulate(&scene, method("staggered"), 2e-4, 2.0, 100);
+    let f = coarse
+        .report
+        .failure
+        .as_ref()
+        .expect("beyond the limit the run must stop");
+    eprintln!("at 200 µs: {f}");
+    assert!(f.hint.as_deref().unwrap_or("").contains("step"), "{f}");
+}
+
+/// Case 6 (long runs): 10⁶ steps of the conservative 3-D double pendulum (1000 s at 1 ms) with
+/// `staggered`. Stable means: |Φ| < 1e-10 throughout, and no secular energy drift — the largest
+/// energy error over the last 10 % of the run no more than twice that over the first 10 %
+/// (measured ratio ≈ 1), and below 1e-4 of the energy in play.
+#[test]
+fn long_run_double_pendulum() {
+    let scene = load_model("double_pendulum_3d.mbd");
+    let tr = simulate(&scene, method("staggered"), 1e-3, 1000.0, 1000);
+    assert!(tr.report.finished, "{:?}", tr.report.failure);
+    assert_eq!(tr.report.steps, 1_000_000);
+    let e0 = tr.frames[0].energy();
+    let scale = tr.frames.iter().fold(0.0f64, |a, f| a.max(f.kinetic));
+    let window = |lo: f64, hi: f64| {
+        tr.frames
+            .iter()
+            .filter(|f| f.t >= lo && f.t <= hi)
+            .fold(0.0f64, |a, f| a.max((f.energy() - e0).abs()))
+    };
+    let (early, late) = (window(0.0, 100.0), window(900.0, 1000.0));
+    eprintln!("10⁶ steps: |Φ| {:.2e}; energy error first 100 s {:.2e}, last 100 s {:.2e} (of {scale:.3} J)", tr.max_violation(), early / scale, late / scale);
+    assert!(tr.max_violation() < 1e-10);
+    assert!(late <= 2.0 * early, "secular drift: {early} → {late}");
+    assert!(late / scale < 1e-4);
+}
+
+/// Case 7a (discontinuous driver): a torque switched on at t = 0.5 s on a disc on an axle.
+/// Reference: θ = (τ/2J)(t − 0.5)² after the switch. The force jumps inside a step, so the
+/// error is first order in h: at t = 2 s it must be below 2·(τ/J)·h·(t − 0.5) (one step's worth
+/// of velocity error carried over the run) for every method that finishes, and halve (±20 %)
+/// when h halves for `staggered`.
+#[test]
+fn step_torque() {
+    let scene = load_model("hard/step_torque.mbd");
+    let (tau, j) = (1.0, 0.5);
+    let angle = |f: &Rec| {
+        let x = f.pose[0].c * Vector3::x();
+        x.y.atan2(x.x)
+    };
+    let err_at = |name: &str, h: f64| {
+        let tr = simulate(&scene, method(name), h, 2.0, 1_000_000);
+        assert!(tr.report.finished, "{name}: {:?}", tr.report.failure);
+        let f = tr.last();
+        let exact = tau / (2.0 * j) * (f.t - 0.5f64).max(0.0).powi(2);
+        (angle(f) - exact).abs()
+    };
+    for name in ALL {
+        let e = err_at(name, 1e-3);
+        eprintln!("step torque, {name}: error {e:.2e} rad");
+        assert!(e < 2.0 * tau / j * 1e-3 * 1.5, "{name}: {e}");
+    }
+    let (e1, e2) = (err_at("staggered", 1e-3), err_at("staggered", 5e-4));
+    assert!(
+        (e1 / e2 - 2.0).abs() < 0.4 || e1 < 1e-12,
+        "order: {e1} → {e2}"
+    );
+}
+
+/// Case 7b (a driver with a kink): θ(t) = 2 rad/s · ramp(t − 0.5 s) on a rod's hinge. The
+/// velocity jumps at 0.5 s, so the constraint force is an impulse. Stable means for every method
+/// that finishes: the driven angle exact to 1e-9 rad at every frame (the driver's row is a
+/// position constraint), and after the kink the kinetic energy equal to ½J_pivot ω² to 1e-6.
+/// Baumgarte and penalty cannot produce an impulse: they must stop with a report.
+#[test]
+fn kinked_driver() {
+    let (m, l, r) = (1.0f64, 1.0f64, 0.01f64);
+    let jp = m * (3.0 * r * r + l * l) / 12.0 + m * (l / 2.0).powi(2);
+    let results = each_method("hard/kinked_driver.mbd", 1e-3, 2.0, |_, tr| {
+        for f in &tr.frames {
+            let x = f.pose[0].c * Vector3::x();
+            let th = x.y.atan2(x.x);
+            let exact = 2.0 * (f.t - 0.5).max(0.0);
+            if (th - exact).sin().abs() > 1e-9 {
+                return Err(format!(
+                    "angle off by {:.2e} at t = {}",
+                    (th - exact).sin().abs(),
+                    f.t
+                ));
+            }
+            if f.t > 0.6 && (f.kinetic - 0.5 * jp * 4.0).abs() > 1e-6 {
+                return Err(format!("kinetic energy {} at t = {}", f.kinetic, f.t));
+            }
+        }
+        Ok(())
+    });
+    assert!(passed(&results, "staggered"), "{results:?}");
+    assert!(
+        !passed(&results, "baumgarte") && !passed(&results, "penalty"),
+        "{results:?}"
+    );
+}
