@@ -831,7 +831,8 @@ mod tests {
         );
         assert_eq!(FnData::default().push(&g), s);
         assert_eq!(s.counts(), (3, 0));
-        assert!((fn1::eval(&f, 1.0).v - 3.5).abs() < 1e-15);
+        // 2·1 + smoothstep at the middle of [0.5, 1.5], which is ½
+        assert!((fn1::eval(&f, 1.0).v - 2.5).abs() < 1e-15);
     }
 
     #[test]

@@ -34,7 +34,14 @@ fn main() {
         if mbdc_runtime::interp::Interp::new(&scene).is_err() {
             continue;
         }
-        let file = f.file_name().unwrap().to_string_lossy().to_string();
+        // The path under models/, with `/` separators, as the tests load it.
+        let file = f
+            .strip_prefix(&models)
+            .expect("under models/")
+            .components()
+            .map(|c| c.as_os_str().to_string_lossy())
+            .collect::<Vec<_>>()
+            .join("/");
         for (mode, suffix) in [(Mode::Unrolled, "unrolled"), (Mode::Tables, "tables")] {
             let module = format!(
                 "{}_{suffix}",
