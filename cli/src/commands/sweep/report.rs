@@ -576,6 +576,8 @@ pub fn figure(r: &SweepResult) -> Figure {
             }
         }
     }
+    dodge(&mut es_marks);
+    dodge(&mut wp_marks);
     let marks_label = "diverged or stopped".to_string();
     Figure {
         title: format!("{}: what accuracy costs", r.model),
@@ -623,6 +625,28 @@ pub fn figure(r: &SweepResult) -> Figure {
         ],
         columns: 2,
         panel_size: (720, 560),
+    }
+}
+
+/// Spread marks that fall on the same x (failed runs of several methods at one step) by a
+/// few per cent on the log axis, so that each method's cross stays visible instead of
+/// being drawn over by the next one's. Marks alone at their x are not moved.
+fn dodge(marks: &mut [(f64, plotters::style::RGBColor)]) {
+    const SPREAD: f64 = 1.07;
+    let same = |a: f64, b: f64| (a - b).abs() <= 1e-9 * a.abs().max(b.abs());
+    let xs: Vec<f64> = marks.iter().map(|m| m.0).collect();
+    let mut seen = vec![false; marks.len()];
+    for i in 0..marks.len() {
+        if seen[i] {
+            continue;
+        }
+        let group: Vec<usize> = (i..marks.len()).filter(|&j| same(xs[i], xs[j])).collect();
+        let n = group.len();
+        for (k, &j) in group.iter().enumerate() {
+            seen[j] = true;
+            let offset = k as f64 - (n as f64 - 1.0) / 2.0;
+            marks[j].0 = xs[j] * SPREAD.powf(offset);
+        }
     }
 }
 
@@ -810,5 +834,18 @@ mod tests {
         assert!(flagged(&f(Some(1.6)), Some(2.0)));
         assert!(!flagged(&f(None), Some(2.0)));
         assert!(!flagged(&f(Some(1.0)), None));
+    }
+
+    #[test]
+    fn failed_runs_at_one_step_stay_visible() {
+        use plotters::style::RGBColor;
+        let (a, b, c) = (RGBColor(1, 0, 0), RGBColor(0, 1, 0), RGBColor(0, 0, 1));
+        let mut m = vec![(0.1, a), (0.05, a), (0.1, b), (0.1, c)];
+        dodge(&mut m);
+        assert_eq!(m[1].0, 0.05, "a mark alone is not moved");
+        let xs = [m[0].0, m[2].0, m[3].0];
+        assert!(xs[0] < xs[1] && xs[1] < xs[2], "{xs:?}");
+        assert!((xs[1] - 0.1).abs() < 1e-15, "centred on the step: {xs:?}");
+        assert!(xs[2] / xs[0] < 1.2, "{xs:?}");
     }
 }

@@ -18,7 +18,9 @@
 //! time is measured around the program: the user + system time the operating system
 //! accounts to the finished child (`getrusage(RUSAGE_CHILDREN)`), minus the same for a
 //! zero-length run of the program (start-up, reading the scene, writing the files), so
-//! that what remains is the integration, as for the interpreter.
+//! that what remains is the integration, as for the interpreter. A run shorter than the
+//! noise of that subtraction (a step that diverges at once) is given [`CPU_RESOLUTION`],
+//! not zero, so that it stays on the log-scale diagram.
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
@@ -375,6 +377,10 @@ impl InterpRunner {
     }
 }
 
+/// The resolution of the operating system's accounting of a child's CPU time
+/// (`getrusage` reports microseconds), s: the least CPU time a compiled run is given.
+pub const CPU_RESOLUTION: f64 = 1e-6;
+
 /// CPU time (user + system) of this process's finished children, s.
 pub fn children_cpu_time() -> f64 {
     #[cfg(unix)]
@@ -530,7 +536,10 @@ impl Runner for CompiledRunner {
             .stderr(Stdio::piped())
             .output()
             .map_err(|e| format!("running {}: {e}", self.program.display()))?;
-        let cpu_time = (children_cpu_time() - c0 - self.baseline).max(0.0);
+        // A run that ends within the start-up's own noise (a step that diverges at once)
+        // still cost something: keep it positive so that it stays on the log-scale
+        // diagram (at the accounting's resolution) instead of falling off it.
+        let cpu_time = (children_cpu_time() - c0 - self.baseline).max(CPU_RESOLUTION);
         if !matches!(o.status.code(), Some(0 | 1)) {
             return Err(format!(
                 "the scene's program {} failed ({}): {}",
