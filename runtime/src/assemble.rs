@@ -52,13 +52,15 @@ pub struct Assembly {
 pub enum AssemblyError {
     /// The constraints cannot all be satisfied together.
     #[error(
-        "the joints {joints:?} cannot be assembled together (remaining violation {residual:.3e})"
+        "the joints {joints:?} cannot be assembled together: their {level} constraints remain violated by {residual:.3e}"
     )]
     Conflict {
         /// The joints with the largest remaining residual.
         joints: Vec<String>,
         /// The largest remaining residual.
         residual: f64,
+        /// `"position"` or `"velocity"`: which level could not be satisfied.
+        level: &'static str,
     },
     /// A linear solver failed.
     #[error("assembly: {0}")]
@@ -176,6 +178,7 @@ pub fn assemble<S: System>(
                 .map(|(_, n)| n.to_string())
                 .collect(),
             residual: res,
+            level: "position",
         });
     }
 
@@ -201,6 +204,45 @@ pub fn assemble<S: System>(
     let vafter = (0..m)
         .filter(|&r| active[r])
         .fold(0.0f64, |a, r| a.max(y[r].abs()));
+    // The projection is exact when the velocity constraints are consistent; a residual left
+    // over means rows that ask for contradicting velocities (a driver turning a joint that
+    // another joint holds still), which the pseudo-inverse can only split the difference of.
+    let vtol = 1e-9 * vbefore.max(1.0);
+    if vafter > vtol {
+        let mut per_joint: Vec<(f64, &str)> = layout
+            .joints
+            .iter()
+            .map(|j| {
+                let v = (j.first_row..j.first_row + j.rows)
+                    .filter(|&r| active[r])
+                    .fold(0.0f64, |a, r| a.max(y[r].abs()));
+                (v, j.name.as_str())
+            })
+            .filter(|(v, _)| *v > vtol)
+            .collect();
+        per_joint.sort_by(|a, b| b.0.total_cmp(&a.0));
+        // The pseudo-inverse leaves the contradiction on whichever rows it drops, so name
+        // with them the other joints on the same bodies: they are the other side of it.
+        let mut joints: Vec<String> = per_joint.iter().map(|(_, n)| n.to_string()).collect();
+        let bodies: Vec<usize> = layout
+            .joints
+            .iter()
+            .filter(|j| joints.contains(&j.name))
+            .flat_map(|j| j.a.into_iter().chain(j.b))
+            .collect();
+        for j in &layout.joints {
+            let shares = j.a.into_iter().chain(j.b).any(|b| bodies.contains(&b));
+            if shares && !joints.contains(&j.name) {
+                joints.push(j.name.clone());
+            }
+        }
+        joints.truncate(6);
+        return Err(AssemblyError::Conflict {
+            joints,
+            residual: vafter,
+            level: "velocity",
+        });
+    }
 
     let moved = (0..nb)
         .filter_map(|i| {

@@ -470,7 +470,11 @@ fn check<S: System>(
                 quantity: "constraint violation |Φ|".into(),
                 value: *v,
                 cause: "the constraint drifted beyond the tolerance: the constraint forces could not hold the joint (singular configuration, inconsistent initial state, or a step too large for the method)".into(),
-                hint: Some(format!("reduce the step (now {h:.3e} s), run with --assemble to start from a consistent state, or use method staggered")),
+                hint: Some(if cfg.method.name() == "staggered" {
+                    format!("reduce the step (now {h:.3e} s), or run with --assemble to start from a consistent state (it names joints that contradict each other)")
+                } else {
+                    format!("reduce the step (now {h:.3e} s), run with --assemble to start from a consistent state, or use method staggered")
+                }),
             });
         }
     }

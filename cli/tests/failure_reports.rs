@@ -1,0 +1,252 @@
+//! Each way a run can go wrong ends in a report (issue 7, "When a run goes wrong"): the
+//! simulated time, the step, where (a body, a joint or the system), the quantity and its value,
+//! the likely cause and what to try; a non-zero exit code; and an output folder that keeps every
+//! frame written so far with a `summary.json` saying the run failed and why. Inconsistent scenes
+//! are caught before the run: by `mbdc check` (by joint name and span) or by `--assemble`
+//! (naming the joints in conflict). The stiff spring is refused before it starts.
+//!
+//! The constraint that drifts past its tolerance (the watchdog's violation check) is covered by
+//! `run_models.rs` (`a_failing_run_reports_and_keeps_its_frames`, with the halve-step retry).
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn mbdc(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_mbdc"))
+        .env("NO_COLOR", "1")
+        .args(args)
+        .output()
+        .expect("mbdc runs")
+}
+
+fn root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
+}
+
+fn scratch(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("mbdc-failure-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+/// Run `model` (a file) with `args` into a fresh folder; expect a failed run and check the
+/// report and the folder. Returns the summary's `failure` object and the stderr.
+fn failed_run(name: &str, model: &Path, args: &[&str]) -> (serde_json::Value, String) {
+    let dir = scratch(name);
+    let out_dir = dir.join("out");
+    let mut all = vec!["run", "--interp", "-q", "-o", s(&out_dir)];
+    all.extend_from_slice(args);
+    all.push(s(model));
+    let out = mbdc(&all);
+    let stderr = String::from_utf8_lossy(&out.stderr).to_string();
+    assert!(
+        !out.status.success(),
+        "{name}: the run should fail\n{stderr}"
+    );
+    for part in ["stopped at t =", "cause:", "help:", "every frame up to"] {
+        assert!(stderr.contains(part), "{name}: no `{part}` in\n{stderr}");
+    }
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out_dir.join("summary.json")).unwrap())
+            .unwrap();
+    assert_eq!(summary["finished"], false, "{name}: {summary}");
+    let f = summary["failure"].clone();
+    for key in [
+        "time", "step", "where", "quantity", "value", "cause", "hint",
+    ] {
+        assert!(!f[key].is_null(), "{name}: failure without `{key}`: {f}");
+    }
+    // every frame up to the failure is on disk: the header and at least the initial frame
+    let csv = std::fs::read_to_string(out_dir.join("bodies.csv")).unwrap();
+    assert!(csv.lines().count() >= 2, "{name}: bodies.csv has no frame");
+    let last_t: f64 = csv
+        .lines()
+        .last()
+        .unwrap()
+        .split(',')
+        .next()
+        .unwrap()
+        .parse()
+        .unwrap();
+    assert!(last_t <= f["time"].as_f64().unwrap() + 1e-12, "{name}");
+    let _ = std::fs::remove_dir_all(&dir);
+    (f, stderr)
+}
+
+fn write(dir: &Path, file: &str, text: &str) -> PathBuf {
+    let p = dir.join(file);
+    std::fs::write(&p, text).unwrap();
+    p
+}
+
+/// NaN: a force that becomes NaN at t = 0.5 s (the square root of a negative number). The
+/// report names the body and the time of the first non-finite state.
+#[test]
+fn nan_in_the_state() {
+    let dir = scratch("nan-model");
+    let model = write(
+        &dir,
+        "nan.mbd",
+        "model nan_force {\n  body ball { mass 1 kg; inertia sphere(radius: 5 cm); position (0, 0, 0) }\n  force push = point(ball @ (0, 0, 0), (1 N * sqrt(0.5 - t / (1 s)), 0, 0))\n  simulate { duration 1 s; step 1 ms }\n}\n",
+    );
+    let (f, _) = failed_run("nan", &model, &[]);
+    assert_eq!(f["where"], "body 'ball'", "{f}");
+    assert!(f["quantity"].as_str().unwrap().contains("state"), "{f}");
+    let t = f["time"].as_f64().unwrap();
+    assert!((0.5..=0.503).contains(&t), "{f}");
+    assert!(f["cause"].as_str().unwrap().contains("NaN"), "{f}");
+}
+
+/// Energy growing without a source: the stiff spring of models/hard/ run with an explicit
+/// method at five times its stability limit (`--force` past the refusal).
+#[test]
+fn energy_growth_without_a_source() {
+    let model = root().join("models/hard/stiff_spring.mbd");
+    let (f, stderr) = failed_run("energy", &model, &["--method", "staggered", "--force"]);
+    assert!(stderr.contains("running anyway: --force"), "{stderr}");
+    assert_eq!(f["where"], "body 'mass1'", "{f}");
+    assert_eq!(f["quantity"], "relative energy growth", "{f}");
+    assert!(
+        f["hint"].as_str().unwrap().contains("implicit_trapezoid"),
+        "{f}"
+    );
+}
+
+/// Newton iteration that does not converge: the implicit trapezoid held to one iteration at a
+/// tolerance it cannot reach in one.
+#[test]
+fn newton_does_not_converge() {
+    let dir = scratch("newton-model");
+    let text = std::fs::read_to_string(root().join("models/hard/stiff_spring.mbd"))
+        .unwrap()
+        .replace(
+            "method implicit_trapezoid }",
+            "method implicit_trapezoid { max_iterations 1; tolerance 1e-14 } }",
+        );
+    assert!(text.contains("max_iterations 1"));
+    let model = write(&dir, "newton.mbd", &text);
+    let (f, _) = failed_run("newton", &model, &[]);
+    assert!(
+        f["cause"].as_str().unwrap().contains("did not converge"),
+        "{f}"
+    );
+    assert!(
+        f["hint"].as_str().unwrap().contains("max_iterations"),
+        "{f}"
+    );
+}
+
+/// A singular matrix: Baumgarte's `B M⁻¹ Bᵀ` on the door with two coaxial hinges (five
+/// dependent rows). The report names a hinge.
+#[test]
+fn singular_matrix() {
+    let model = root().join("models/hard/door.mbd");
+    let (f, _) = failed_run("singular", &model, &["--method", "baumgarte"]);
+    let at = f["where"].as_str().unwrap();
+    assert!(at == "joint 'lower'" || at == "joint 'upper'", "{f}");
+    assert!(f["cause"].as_str().unwrap().contains("singular"), "{f}");
+    assert!(f["hint"].as_str().unwrap().contains("staggered"), "{f}");
+}
+
+/// The stability estimate before the run: the stiff spring (ω = 1000 rad/s, h = 10 ms) is
+/// refused for an explicit method with the numbers, and runs with its own
+/// `implicit_trapezoid`.
+#[test]
+fn stiff_spring_is_refused_for_explicit_methods_and_runs_implicitly() {
+    let model = root().join("models/hard/stiff_spring.mbd");
+    let dir = scratch("stiff");
+    let out = mbdc(&[
+        "run",
+        "--interp",
+        "-q",
+        "--method",
+        "staggered",
+        "-o",
+        s(&dir.join("refused")),
+        s(&model),
+    ]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    for part in [
+        "above the stability limit",
+        "spring1",
+        "1.0000e3 rad/s",
+        "h·ω = 10.00 > 2",
+        "at most 2.000e-3 s",
+        "--force",
+    ] {
+        assert!(stderr.contains(part), "no `{part}` in\n{stderr}");
+    }
+    assert!(
+        !dir.join("refused/bodies.csv").exists(),
+        "a refused run must not start"
+    );
+    let out = mbdc(&["run", "--interp", "-q", "-o", s(&dir.join("ok")), s(&model)]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Inconsistent scenes. A joint whose points are 1 m apart at t = 0 is reported by `mbdc check`
+/// by name and span, and `--assemble` moves the body onto it. A driver that turns a crank that
+/// a second joint holds still cannot be assembled: the error names the joints in conflict.
+#[test]
+fn inconsistent_scenes_are_named() {
+    let dir = scratch("inconsistent");
+    let far = write(
+        &dir,
+        "far.mbd",
+        "model far_apart {\n  gravity (0, 0, -9.81) m/s^2\n  body rod { mass 1 kg; inertia rod(length: 1 m, radius: 1 cm); position (0.5, 0, 0.3) m; orientation axis_angle((0, 1, 0), 90 deg) }\n  joint pin = revolute(ground @ (0, 0, 0), rod @ (0, 0, 0.5) m, axis: (0, 1, 0))\n  simulate { duration 0.1 s; step 1 ms }\n}\n",
+    );
+    let out = mbdc(&["check", s(&far)]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.contains("joint `pin` is violated by 1.000e0 at t = 0"),
+        "{stderr}"
+    );
+    assert!(stderr.contains("far.mbd:4:3"), "{stderr}");
+    assert!(stderr.contains("--assemble"), "{stderr}");
+    let out = mbdc(&[
+        "run",
+        "--interp",
+        "--assemble",
+        "-o",
+        s(&dir.join("far-out")),
+        s(&far),
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+
+    let contra = write(
+        &dir,
+        "contra.mbd",
+        "model contradiction {\n  body crank { mass 1 kg; inertia rod(length: 0.2 m, radius: 1 cm, axis: x); position (0.1, 0, 0) m }\n  joint pivot = revolute(ground @ (0, 0, 0), crank @ (-0.1, 0, 0) m, axis: (0, 0, 1))\n  joint tip = spherical(ground @ (0.2, 0, 0) m, crank @ (0.1, 0, 0) m)\n  joint motor = drive_angle(pivot, 2 * pi * 1 Hz * t)\n  simulate { duration 1 s; step 1 ms }\n}\n",
+    );
+    let out = mbdc(&[
+        "run",
+        "--interp",
+        "-q",
+        "--assemble",
+        "-o",
+        s(&dir.join("contra-out")),
+        s(&contra),
+    ]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "{stderr}");
+    assert!(
+        stderr.contains(r#"the joints ["pivot", "tip", "motor"] cannot be assembled together: their velocity constraints"#),
+        "{stderr}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
