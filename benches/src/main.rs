@@ -1,27 +1,412 @@
+//! `mbdc-bench`: the measurements of BENCHMARKS.md, section "Generated code".
+//!
+//! ```text
+//! cargo run --release -p mbdc-bench -- steps [ROUNDS]     cost per step: generated, interpreted, yardstick
+//! cargo run --release -p mbdc-bench -- size               generated source size vs bodies
+//! cargo run --release -p mbdc-bench -- startup [MBDC]     `mbdc run` to the first step, cold and warm
+//! cargo run --release -p mbdc-bench -- profile [STEPS]    the generated double pendulum alone (for perf)
+//! ```
+//!
+//! Timings are interleaved rounds (every candidate once per round, in turn) and the best of
+//! the rounds is reported, so that the candidates see the same machine load.
+
+use std::hint::black_box;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::time::Instant;
+
+use mbdc_bench::generated::{
+    chain32_tables, chain32_unrolled, double_pendulum_3d_tables, double_pendulum_3d_unrolled,
+    four_bar_tables, four_bar_unrolled,
+};
+use mbdc_bench::yardstick::DoublePendulum;
+use mbdc_compiler::codegen::{self, Options, SceneJson};
+use mbdc_compiler::{Override, Scene};
+use mbdc_runtime::compiled::{CompiledModel, Mode};
 use mbdc_runtime::integrators::{self, State};
 use mbdc_runtime::interp::Interp;
 use mbdc_runtime::scene::MethodSpec;
-use std::time::Instant;
+use mbdc_runtime::system::{ConstraintEval, Need, System, Wrench};
+
+fn root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..")
+}
+
+fn load(file: &str, sets: &[(&str, &str)]) -> Scene {
+    let o: Vec<Override> = sets.iter().map(|(n, v)| Override::new(*n, *v)).collect();
+    let loaded = mbdc_compiler::load_file(root().join("models").join(file), &o);
+    match loaded.scene {
+        Some(s) => s,
+        None => panic!("{file}: {}", loaded.render_plain()),
+    }
+}
 
 fn main() {
-    let args: Vec<String> = std::env::args().collect();
-    let model = args.get(1).cloned().unwrap_or("double_pendulum_3d".into());
-    let method = args.get(2).cloned().unwrap_or("staggered".into());
-    let n: usize = args.get(3).and_then(|s| s.parse().ok()).unwrap_or(200000);
-    let path = format!("{}/../models/{model}.mbd", env!("CARGO_MANIFEST_DIR"));
-    let scene = mbdc_compiler::load_file(&path, &[]).scene.unwrap();
-    let sys = Interp::new(&scene).unwrap();
-    let m = if method == scene.simulate.method.name() {
-        scene.simulate.method.clone()
-    } else {
-        MethodSpec::default_for(&method).unwrap()
-    };
-    let st = State::initial(&sys);
-    let mut it = integrators::make(&m, &sys, scene.simulate.step, &st).unwrap();
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    match args.first().map(String::as_str) {
+        Some("steps") => steps(args.get(1).and_then(|s| s.parse().ok()).unwrap_or(7)),
+        Some("size") => size(),
+        Some("profile") => profile(args.get(1).and_then(|s| s.parse().ok()).unwrap_or(200_000)),
+        Some("startup") => startup(
+            &args
+                .get(1)
+                .map(PathBuf::from)
+                .unwrap_or_else(|| root().join("target/release/mbdc")),
+        ),
+        _ => {
+            eprintln!("usage: mbdc-bench steps [ROUNDS] | size | startup [MBDC] | profile [STEPS]");
+            std::process::exit(2);
+        }
+    }
+}
+
+// ---------------------------------------------------------------------------------------
+// Cost per step
+
+/// Seconds for `n` steps of the default staggered method from the scene's start, and the
+/// mean number of LINT Newton iterations.
+fn run_steps<S: System>(sys: &S, h: f64, n: usize) -> (f64, f64) {
+    let method = MethodSpec::default_for("staggered").expect("staggered");
+    let st = State::initial(sys);
+    let mut it = integrators::make(&method, sys, h, &st).expect("starts");
     let t0 = Instant::now();
     for _ in 0..n {
-        it.step(&sys).unwrap();
+        it.step(sys).expect("steps");
     }
     let dt = t0.elapsed().as_secs_f64();
-    println!("{model} {method}: {:.3} us/step", dt / n as f64 * 1e6);
+    let iters = it
+        .stats()
+        .iter()
+        .find(|(k, _)| *k == "newton_iterations_mean")
+        .map(|x| x.1)
+        .unwrap_or(0.0);
+    (dt, iters)
+}
+
+/// Seconds per call of the model evaluations a staggered step makes, at the start state:
+/// (`applied` + `constraints(ALL)`, `constraints(PHI)`).
+fn eval_cost<S: System>(sys: &S, n: usize) -> (f64, f64) {
+    let st = State::initial(sys);
+    let m = sys.layout().rows;
+    let mut ce = ConstraintEval::new(m);
+    let mut w = vec![Wrench::default(); sys.layout().bodies()];
+    let t0 = Instant::now();
+    for k in 0..n {
+        let t = black_box(k as f64 * 1e-9);
+        sys.applied(t, &st.pose, &st.twist, &mut w);
+        sys.constraints(t, &st.pose, &st.twist, Need::ALL, &mut ce);
+        black_box(&ce);
+        black_box(&w);
+    }
+    let full = t0.elapsed().as_secs_f64() / n as f64;
+    let t0 = Instant::now();
+    for k in 0..n {
+        let t = black_box(k as f64 * 1e-9);
+        sys.constraints(t, &st.pose, &st.twist, Need::PHI, &mut ce);
+        black_box(&ce);
+    }
+    let phi = t0.elapsed().as_secs_f64() / n as f64;
+    (full, phi)
+}
+
+/// A timed routine: given a count, the seconds it took and a second figure.
+type Timed<'a> = Box<dyn Fn(usize) -> (f64, f64) + 'a>;
+
+/// One candidate of the step benchmark.
+struct Candidate<'a> {
+    scene: &'static str,
+    path: &'static str,
+    steps: usize,
+    /// Runs `steps` steps: (seconds, mean Newton iterations).
+    run: Timed<'a>,
+    /// Model evaluation cost per call, if it goes through `System`.
+    eval: Option<Timed<'a>>,
+    best: f64,
+    iters: f64,
+    eval_best: (f64, f64),
+}
+
+impl<'a> Candidate<'a> {
+    fn system<S: System>(
+        scene: &'static str,
+        path: &'static str,
+        sys: &'a S,
+        h: f64,
+        steps: usize,
+    ) -> Candidate<'a> {
+        Candidate {
+            scene,
+            path,
+            steps,
+            run: Box::new(move |n| run_steps(sys, h, n)),
+            eval: Some(Box::new(move |n| eval_cost(sys, n))),
+            best: f64::INFINITY,
+            iters: 0.0,
+            eval_best: (f64::INFINITY, f64::INFINITY),
+        }
+    }
+}
+
+fn generated<M: CompiledModel>(scene: &Scene) -> M {
+    M::from_scene(scene).expect("same structure")
+}
+
+fn steps(rounds: usize) {
+    let dp = load("double_pendulum_3d.mbd", &[]);
+    let fb = load("four_bar.mbd", &[]);
+    let ch = load("chain.mbd", &[]);
+    let (h_dp, h_fb, h_ch) = (dp.simulate.step, fb.simulate.step, ch.simulate.step);
+    let dp_i = Interp::new(&dp).expect("rigid");
+    let dp_u: double_pendulum_3d_unrolled::Model = generated(&dp);
+    let dp_t: double_pendulum_3d_tables::Model = generated(&dp);
+    let fb_i = Interp::new(&fb).expect("rigid");
+    let fb_u: four_bar_unrolled::Model = generated(&fb);
+    let fb_t: four_bar_tables::Model = generated(&fb);
+    let ch_i = Interp::new(&ch).expect("rigid");
+    let ch_u: chain32_unrolled::Model = generated(&ch);
+    let ch_t: chain32_tables::Model = generated(&ch);
+    let (n_small, n_chain) = (2000, 300);
+    let dp_ref = &dp;
+    let mut c = vec![
+        Candidate::system("double_pendulum_3d", "interpreted", &dp_i, h_dp, n_small),
+        Candidate::system(
+            "double_pendulum_3d",
+            "generated, unrolled",
+            &dp_u,
+            h_dp,
+            n_small,
+        ),
+        Candidate::system(
+            "double_pendulum_3d",
+            "generated, tables",
+            &dp_t,
+            h_dp,
+            n_small,
+        ),
+        Candidate {
+            scene: "double_pendulum_3d",
+            path: "hand-written yardstick",
+            steps: n_small,
+            run: Box::new(move |n| {
+                let mut y = DoublePendulum::new(dp_ref, h_dp);
+                let t0 = Instant::now();
+                for _ in 0..n {
+                    y.step();
+                }
+                let dt = t0.elapsed().as_secs_f64();
+                black_box(y.poses());
+                (dt, y.iterations as f64 / n as f64)
+            }),
+            eval: None,
+            best: f64::INFINITY,
+            iters: 0.0,
+            eval_best: (f64::INFINITY, f64::INFINITY),
+        },
+        Candidate::system("four_bar", "interpreted", &fb_i, h_fb, n_small),
+        Candidate::system("four_bar", "generated, unrolled", &fb_u, h_fb, n_small),
+        Candidate::system("four_bar", "generated, tables", &fb_t, h_fb, n_small),
+        Candidate::system("chain (32 links)", "interpreted", &ch_i, h_ch, n_chain),
+        Candidate::system(
+            "chain (32 links)",
+            "generated, unrolled",
+            &ch_u,
+            h_ch,
+            n_chain,
+        ),
+        Candidate::system(
+            "chain (32 links)",
+            "generated, tables",
+            &ch_t,
+            h_ch,
+            n_chain,
+        ),
+    ];
+    for _ in 0..rounds {
+        for x in c.iter_mut() {
+            let (dt, it) = (x.run)(x.steps);
+            x.best = x.best.min(dt / x.steps as f64);
+            x.iters = it;
+            if let Some(e) = &x.eval {
+                let (a, b) = e(5 * x.steps);
+                x.eval_best = (x.eval_best.0.min(a), x.eval_best.1.min(b));
+            }
+        }
+    }
+    println!(
+        "cost per step, staggered (defaults), best of {rounds} interleaved rounds; \
+         model = applied + constraints(ALL) + (iterations + 1) × constraints(PHI) per step\n"
+    );
+    println!("| scene | path | µs/step | × generated (unrolled) | Newton it./step | model µs/step | rest µs/step |");
+    println!("|---|---|---|---|---|---|---|");
+    for x in &c {
+        let gen = c
+            .iter()
+            .find(|y| y.scene == x.scene && y.path == "generated, unrolled")
+            .map(|y| y.best)
+            .unwrap_or(f64::NAN);
+        let (model, rest) = match x.eval {
+            Some(_) => {
+                let m = x.eval_best.0 + (x.iters + 1.0) * x.eval_best.1;
+                (
+                    format!("{:.2}", m * 1e6),
+                    format!("{:.2}", (x.best - m) * 1e6),
+                )
+            }
+            None => ("–".into(), "–".into()),
+        };
+        println!(
+            "| {} | {} | {:.2} | {:.2} | {:.2} | {} | {} |",
+            x.scene,
+            x.path,
+            x.best * 1e6,
+            x.best / gen,
+            x.iters,
+            model,
+            rest
+        );
+    }
+}
+
+/// Only the generated double pendulum, for a profiler (`perf record`).
+fn profile(n: usize) {
+    let dp = load("double_pendulum_3d.mbd", &[]);
+    let m: double_pendulum_3d_unrolled::Model = generated(&dp);
+    let (dt, _) = run_steps(&m, dp.simulate.step, n);
+    println!("{:.3} µs/step", dt / n as f64 * 1e6);
+}
+
+// ---------------------------------------------------------------------------------------
+// Source size
+
+fn size() {
+    let opts = |mode| Options {
+        module: None,
+        mode: Some(mode),
+        scene_json: SceneJson::Include("scene.json".into()),
+    };
+    println!("generated source (formatted, scene JSON in its own file) vs number of bodies\n");
+    println!("| scene | bodies | layout | bytes | lines | scene JSON bytes |");
+    println!("|---|---|---|---|---|---|");
+    let mut rows: Vec<(String, Scene)> = vec![
+        (
+            "double_pendulum_3d".into(),
+            load("double_pendulum_3d.mbd", &[]),
+        ),
+        ("four_bar".into(), load("four_bar.mbd", &[])),
+    ];
+    for n in ["10", "100", "1000"] {
+        rows.push((format!("chain N = {n}"), load("chain.mbd", &[("N", n)])));
+    }
+    for (name, scene) in &rows {
+        for (mode, label) in [(Mode::Unrolled, "unrolled"), (Mode::Tables, "tables")] {
+            let g = codegen::generate(scene, &opts(mode)).expect("generates");
+            let default = if codegen::choose_mode(scene) == mode {
+                " (default)"
+            } else {
+                ""
+            };
+            println!(
+                "| {name} | {} | {label}{default} | {} | {} | {} |",
+                scene.bodies.len(),
+                g.source.len(),
+                g.source.lines().count(),
+                g.scene_json.len()
+            );
+        }
+    }
+}
+
+// ---------------------------------------------------------------------------------------
+// Start-up of `mbdc run`
+
+/// Wall time of one `mbdc run`, in seconds; panics if it fails.
+fn time_run(mbdc: &Path, file: &Path, extra: &[&str], out: &Path) -> f64 {
+    let t0 = Instant::now();
+    let o = Command::new(mbdc)
+        .arg("run")
+        .arg(file)
+        .args(extra)
+        .arg("-o")
+        .arg(out)
+        .arg("--quiet")
+        .output()
+        .expect("runs mbdc");
+    let dt = t0.elapsed().as_secs_f64();
+    assert!(
+        o.status.success(),
+        "mbdc run {} {extra:?} failed:\n{}{}",
+        file.display(),
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    );
+    dt
+}
+
+fn startup(mbdc: &Path) {
+    assert!(
+        mbdc.is_file(),
+        "{} not found: build it with `cargo build --release -p mbdc`",
+        mbdc.display()
+    );
+    let tmp = std::env::temp_dir().join(format!("mbdc-bench-startup-{}", std::process::id()));
+    std::fs::create_dir_all(&tmp).expect("temp dir");
+    let out = tmp.join("out");
+    // Make sure the runtime of the shared workspace is built (the "runtime already built"
+    // condition): one run of a scene, not timed.
+    let primed = time_run(
+        mbdc,
+        &root().join("models/double_pendulum_3d.mbd"),
+        &["--duration", "0.001"],
+        &out,
+    );
+    println!("priming run (builds the shared runtime if needed): {primed:.2} s\n");
+    println!(
+        "wall time of `mbdc run FILE --duration h -q` (one step, output and plots included)\n"
+    );
+    println!("| scene | cold: new scene crate | warm: second run | warm, changed param | interpreter (`--interp`) |");
+    println!("|---|---|---|---|---|");
+    let nonce = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map(|d| d.as_nanos())
+        .unwrap_or(0);
+    for (label, model, sets, param, h) in [
+        (
+            "double_pendulum_3d",
+            "double_pendulum_3d",
+            vec![],
+            "L=1.1m",
+            "0.001",
+        ),
+        (
+            "chain, N = 1000",
+            "chain",
+            vec!["--set", "N=1000"],
+            "L=0.11m",
+            "0.0001",
+        ),
+    ] {
+        // A scene of a new name: the same structure in a crate that was never built.
+        let text = std::fs::read_to_string(root().join(format!("models/{model}.mbd")))
+            .expect("model file");
+        let renamed = text.replacen(
+            &format!("model {model} {{"),
+            &format!("model {model}_cold{nonce} {{"),
+            1,
+        );
+        assert_ne!(text, renamed, "the model header");
+        let file = tmp.join(format!("{model}.mbd"));
+        std::fs::write(&file, renamed).expect("write model");
+        let mut args = sets.clone();
+        args.extend(["--duration", h]);
+        let cold = time_run(mbdc, &file, &args, &out);
+        let warm = time_run(mbdc, &file, &args, &out);
+        let mut changed = args.clone();
+        changed.extend(["--set", param]);
+        let warm_param = time_run(mbdc, &file, &changed, &out);
+        let mut interp = args.clone();
+        interp.push("--interp");
+        let interp = time_run(mbdc, &file, &interp, &out);
+        println!("| {label} | {cold:.2} s | {warm:.2} s | {warm_param:.2} s | {interp:.2} s |");
+    }
+    let _ = std::fs::remove_dir_all(&tmp);
 }
