@@ -29,7 +29,8 @@
 //! - **Order**: least-squares slope of log(error) on log(h) over the converging range (see
 //!   [`fit`]); flagged when it differs from the method's theoretical order by more than 0.3.
 //! - Runs that diverge or stop stay in the table (status and time reached) and are drawn
-//!   as crosses along the top of the diagrams.
+//!   as crosses along the top of the diagrams. They are repeated at most three times (their
+//!   CPU time only places the cross).
 //!
 //! The runs go through a [`runner::Runner`]: by default the scene's compiled program
 //! ([`runner::CompiledRunner`], built once like `mbdc run` builds it; step, method and
@@ -401,8 +402,17 @@ fn measure_run(
     min_time: f64,
 ) -> Result<(Outcome, u32), String> {
     const MAX_REPETITIONS: u32 = 1000;
+    // A run that failed has no accuracy to put a price on: its CPU time only places its
+    // cross on the diagram, and a few repetitions do that (a step that diverges at once
+    // would otherwise be repeated hundreds of times to fill `min_time`).
+    const MAX_FAILED_REPETITIONS: u32 = 3;
     let wall = std::time::Instant::now();
     let mut first = runner.run(req)?;
+    let max_reps = if first.status.is_ok() {
+        MAX_REPETITIONS
+    } else {
+        MAX_FAILED_REPETITIONS
+    };
     let mut best = first.cpu_time;
     let mut total = first.cpu_time;
     let mut reps = 1u32;
@@ -411,10 +421,7 @@ fn measure_run(
         ..req.clone()
     };
     // (and at most 10 × min_time of wall time: a compiled run also pays its process start)
-    while total < min_time
-        && reps < MAX_REPETITIONS
-        && wall.elapsed().as_secs_f64() < 10.0 * min_time
-    {
+    while total < min_time && reps < max_reps && wall.elapsed().as_secs_f64() < 10.0 * min_time {
         let o = runner.run(&again)?;
         best = best.min(o.cpu_time);
         total += o.cpu_time.max(1e-9);
