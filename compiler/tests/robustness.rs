@@ -286,3 +286,41 @@ fn deep_nesting_is_an_error_not_a_crash() {
         check(&format!("model m {{ {blocks} }}"));
     }
 }
+
+/// Imports nested deeper than `MAX_IMPORT_DEPTH` (a chain of 300 files) are refused with an
+/// error at the import that goes too deep, not followed to the end of the chain.
+#[test]
+fn deep_imports_are_refused() {
+    let dir = std::env::temp_dir().join(format!("mbdc-deep-imports-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let n = 300;
+    for i in 0..n {
+        std::fs::write(
+            dir.join(format!("m{i}.mbd")),
+            format!("import \"m{}.mbd\"\n", i + 1),
+        )
+        .unwrap();
+    }
+    std::fs::write(dir.join(format!("m{n}.mbd")), "const x = 1\n").unwrap();
+    std::fs::write(
+        dir.join("top.mbd"),
+        "import \"m0.mbd\"\nmodel deep { body b { mass 1 kg; inertia sphere(radius: 1 cm) } }\n",
+    )
+    .unwrap();
+    let loaded = mbdc_compiler::load_file(dir.join("top.mbd"), &[]);
+    assert!(loaded.has_errors());
+    let text = loaded.render_plain();
+    let max = mbdc_compiler::load::MAX_IMPORT_DEPTH;
+    assert!(
+        text.contains(&format!("imports nest more than {max} files deep")),
+        "{text}"
+    );
+    // the chain was cut where it became too deep: far fewer files read than written
+    assert!(
+        loaded.sources.files().count() <= max + 2,
+        "{}",
+        loaded.sources.files().count()
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
