@@ -6,7 +6,7 @@ use std::path::Path;
 
 use serde_json::json;
 
-use super::fit::Fit;
+use super::fit::{Excluded, Fit};
 use super::{Measure, ReferenceInfo, SweepResult, SweepRun};
 use crate::plot::figure::{
     color, short_sci, Axis, Figure, LegendPos, Panel, Series, SeriesKind, TopMarks,
@@ -443,14 +443,35 @@ pub fn reading(r: &SweepResult) -> String {
         if flagged(f, m.theory) {
             let _ = writeln!(
                 s,
-                "- {}: the measured order {} is not the theoretical {} — look at the local orders in sweep.json and at the right panel: a floor inside the fitted range, a reference not accurate enough, or a real loss of order.",
+                "- {}: the measured order {} is not the theoretical {} — look at the local orders in sweep.json and at the right panel: a floor inside the fitted range, a reference not accurate enough, or a real loss of order.{}",
                 m.name,
                 order_text(f),
-                m.theory.unwrap_or(f64::NAN)
+                m.theory.unwrap_or(f64::NAN),
+                finer_hint(f)
             );
         }
     }
     s
+}
+
+/// When finer runs than the fitted ones were left out as outside the asymptotic range (a
+/// longer stretch of coarser runs agreed with itself), their local order: the fitted
+/// stretch may be a pre-asymptotic one, and only finer steps tell which persists.
+fn finer_hint(f: &Fit) -> String {
+    let Some(h_fit) = f.used.iter().copied().reduce(f64::min) else {
+        return String::new();
+    };
+    let finer_left_out = f
+        .excluded
+        .iter()
+        .any(|(h, why)| *why == Excluded::NotAsymptotic && *h < h_fit);
+    match f.local.iter().min_by(|a, b| a.1.total_cmp(&b.1)) {
+        Some(&(_, h_fine, p)) if finer_left_out && h_fine < h_fit => format!(
+            " Its finest runs (down to h = {} s), left out of the fit, have local order {p:.2}: the fitted range may be pre-asymptotic; sweep finer steps (--levels) to see which order persists.",
+            short_sci(h_fine)
+        ),
+        _ => String::new(),
+    }
 }
 
 /// The figure: work–precision and error vs step.
@@ -847,5 +868,47 @@ mod tests {
         assert!(xs[0] < xs[1] && xs[1] < xs[2], "{xs:?}");
         assert!((xs[1] - 0.1).abs() < 1e-15, "centred on the step: {xs:?}");
         assert!(xs[2] / xs[0] < 1.2, "{xs:?}");
+    }
+
+    #[test]
+    fn a_pre_asymptotic_fit_points_at_the_finer_runs() {
+        // local orders 3.3, 3.2 over the coarse runs, 1.85 over the finest pair (the 3-D
+        // double pendulum's implicit_trapezoid at five levels): the longer coarse stretch is
+        // fitted and flagged, and the reading names the finest runs' order
+        let mut r = result(&[
+            (0.08, Some(0.2), 1.0),
+            (0.04, Some(0.2 / 2f64.powf(3.3)), 2.0),
+            (0.02, Some(0.2 / 2f64.powf(6.5)), 4.0),
+            (0.01, Some(0.2 / 2f64.powf(8.35)), 8.0),
+        ]);
+        let pts: Vec<super::super::fit::Point> = r
+            .runs
+            .iter()
+            .map(|x| super::super::fit::Point {
+                h: x.step,
+                error: x.errors.as_ref().and_then(|e| e.pos_max),
+                finished: true,
+            })
+            .collect();
+        let rules = super::super::fit::Rules {
+            floor: 1e-12,
+            ceiling: 1.0,
+            h_limit: None,
+        };
+        let f = super::super::fit::fit(&pts, &rules);
+        assert!(f.order.is_some_and(|p| p > 3.0), "{f:?}");
+        r.fits = vec![(f, None)];
+        let text = reading(&r);
+        assert!(text.contains("the measured order 3.2"), "{text}");
+        assert!(
+            text.contains(
+                "Its finest runs (down to h = 1e-2 s), left out of the fit, have local order 1.85"
+            ),
+            "{text}"
+        );
+        // a fit over the finest runs gets no such hint
+        let mut g = r.fits[0].0.clone();
+        g.excluded.clear();
+        assert_eq!(finer_hint(&g), "");
     }
 }
