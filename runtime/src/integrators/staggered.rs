@@ -131,6 +131,9 @@ pub struct TwoStage {
     midpoint_gyro: bool,
     /// One sequence: its velocities at the previous half step (for synchronized output).
     vel_prev: Vec<Twist>,
+    /// One sequence, Baumgarte: the velocity at τ estimated from the half steps (second
+    /// order), for γ and the gyroscopic load of the index-1 λ solve.
+    vel_sync: Vec<Twist>,
     tau: f64,
     t0: f64,
     half_steps: u64,
@@ -269,10 +272,43 @@ impl TwoStage {
         // Jacobi-scaled matrix, which bounds cond(E + h²K) by about 10⁹ whatever K does.
         let rho = 1e-9;
         let (epsilon, e): (f64, Vec<f64>) = match (&law, epsilon) {
-            (Law::Penalty, eps) => {
-                // the penalty frequency √(λ_max(K)/ε)·h stays at 1, below the limit 2
-                let eps = eps.unwrap_or((h * h * kmax).max(f64::MIN_POSITIVE));
-                (eps, vec![eps; m])
+            (Law::Penalty, Some(eps)) => (eps, vec![eps; m]),
+            (Law::Penalty, None) => {
+                // Per row, ε_r = g·h²·K_rr, where g bounds λ_max of the Jacobi-scaled K: for a
+                // positive semi-definite K, |K_rc| ≤ √(K_rr K_cc), so g = the most rows coupled
+                // to one row (through the bodies of its joint). Then the penalty frequencies
+                // √(λ_max(E⁻¹K))·h stay at most 1, half the explicit limit 2, and each row's
+                // sag ε_rλ_r follows its own stiffness: one scalar ε sized for the stiffest
+                // row (a slender rod's axial rotation) let the translations sag by decimetres.
+                let mut on_body = vec![0usize; nb];
+                for j in &layout.joints {
+                    for b in j.a.into_iter().chain(j.b) {
+                        on_body[b] += j.rows;
+                    }
+                }
+                let mut e = vec![0.0; m];
+                for j in &layout.joints {
+                    let g =
+                        j.a.into_iter()
+                            .chain(j.b)
+                            .map(|b| on_body[b])
+                            .sum::<usize>();
+                    for r in j.first_row..j.first_row + j.rows {
+                        // rows inactive at the start (locks) have no K_rr yet: the bound
+                        // of the whole matrix
+                        let k = if kd[r] > 0.0 {
+                            g.max(1) as f64 * kd[r]
+                        } else {
+                            kmax
+                        };
+                        e[r] = (h * h * k).max(f64::MIN_POSITIVE);
+                    }
+                }
+                let eps = (0..m)
+                    .filter(|&r| layout.row_kind[r] == RowKind::Holonomic)
+                    .map(|r| e[r])
+                    .fold(0.0, f64::max);
+                (eps, e)
             }
             (_, Some(eps)) => (
                 eps,
@@ -347,6 +383,7 @@ impl TwoStage {
             paper_literal,
             epsilon,
             vel_prev: vel.clone(),
+            vel_sync: vel.clone(),
             e_eff: e.clone(),
             lambda_guess: vec![0.0; m],
             regularized_steps: 0,
@@ -410,7 +447,14 @@ impl TwoStage {
         } else {
             qbar(layout, &self.applied, vy, &mut self.qbar);
         }
-        sys.constraints(self.tau, px, vy, Need::ALL, &mut self.ce);
+        // Baumgarte's index-1 λ needs γ at a synchronous velocity: with one sequence the
+        // estimate `vel_sync` (the sequence's own velocity lags by h/2, an O(h) error in λ)
+        let vc = if self.one_sequence && matches!(self.law, Law::Baumgarte { .. }) {
+            &self.vel_sync
+        } else {
+            vy
+        };
+        sys.constraints(self.tau, px, vc, Need::ALL, &mut self.ce);
     }
 
     /// Advance `src` by h with the current `qbar` and `flam` into `dst`.
@@ -648,8 +692,32 @@ impl TwoStage {
     ) -> Result<(), StepError> {
         let layout = sys.layout();
         let m = layout.rows;
-        b_minv(layout, &self.ce, &self.qbar, &mut self.res);
-        b_times(layout, &self.ce, &self.seq[x].vel, &mut self.tmp);
+        if self.midpoint_gyro {
+            // the coordinate update applies the gyroscopic term itself, so `qbar` lacks it;
+            // the λ solve needs it (at the synchronous ω): flam is free until bt_lambda
+            let w = if self.one_sequence {
+                &self.vel_sync
+            } else {
+                &self.seq[1 - x].vel
+            };
+            qbar(layout, &self.applied, w, &mut self.flam);
+            b_minv(layout, &self.ce, &self.flam, &mut self.res);
+        } else {
+            b_minv(layout, &self.ce, &self.qbar, &mut self.res);
+        }
+        // The rate term Φ̇ = Bu̇ at τ. With one sequence and 2αh ≤ 1/2, from the
+        // second-order estimate `vel_sync` (AB2 in effect for this damping-like term: stable
+        // for 2αh < 1). The sequence's own velocity is h/2 old against the Jacobian at τ, an
+        // O(h) rate error that the feedback turns into a steady violation of about αhω²r/β²
+        // (1.5e-3 m on the pendulum at h = 1 ms, α = β = 10); it is kept where AB2 would be
+        // near its limit (stable for 2αh < 2: the crank's α = 70 at h = 0.01). With two
+        // sequences, the lagged velocity: the other sequence's couples them and was unstable.
+        let rate_vel = if self.one_sequence && 2.0 * alpha * self.h <= 0.5 {
+            &self.vel_sync
+        } else {
+            &self.seq[x].vel
+        };
+        b_times(layout, &self.ce, rate_vel, &mut self.tmp);
         for r in 0..m {
             if !self.active[r] {
                 self.res[r] = 0.0;
@@ -734,9 +802,9 @@ impl TwoStage {
                     self.lambda[r] = if !self.active[r] {
                         0.0
                     } else if layout.row_kind[r] == RowKind::Holonomic {
-                        self.ce.phi[r] / self.epsilon
+                        self.ce.phi[r] / self.e[r]
                     } else {
-                        (self.tmp[r] + self.ce.bias[r]) * self.h / self.epsilon
+                        (self.tmp[r] + self.ce.bias[r]) * self.h / self.e[r]
                     };
                 }
                 false
@@ -891,6 +959,21 @@ impl<S: System> Integrator<S> for TwoStage {
     fn step(&mut self, sys: &S) -> Result<StepInfo, StepError> {
         let mut iterations = 0;
         if self.one_sequence {
+            if matches!(self.law, Law::Baumgarte { .. }) {
+                // v(τ) ≈ v(τ − h/2) + (v(τ − h/2) − v(τ − 3h/2))/2; at the start, the initial
+                // velocity itself (vel_prev holds it before the first step)
+                for i in 0..self.vel_sync.len() {
+                    let (v1, v0) = (self.seq[0].vel[i], self.vel_prev[i]);
+                    self.vel_sync[i] = if self.half_steps == 0 {
+                        v0
+                    } else {
+                        Twist {
+                            v: v1.v * 1.5 - v0.v * 0.5,
+                            w: v1.w * 1.5 - v0.w * 0.5,
+                        }
+                    };
+                }
+            }
             self.vel_prev.copy_from_slice(&self.seq[0].vel);
             iterations += self.advance(sys, 0, 0)?;
             self.half_steps += 2;
