@@ -5,6 +5,8 @@
 //! are caught before the run: by `mbdc check` (by joint name and span) or by `--assemble`
 //! (naming the joints in conflict). The stiff spring is refused before it starts.
 //!
+//! The PCG of natural partitioning that does not converge is `pcg_does_not_converge`.
+//!
 //! The constraint that drifts past its tolerance (the watchdog's violation check) is covered by
 //! `run_models.rs` (`a_failing_run_reports_and_keeps_its_frames`, with the halve-step retry).
 
@@ -135,6 +137,39 @@ fn newton_does_not_converge() {
         f["cause"].as_str().unwrap().contains("did not converge"),
         "{f}"
     );
+    assert!(
+        f["hint"].as_str().unwrap().contains("max_iterations"),
+        "{f}"
+    );
+}
+
+/// PCG that does not converge: natural partitioning on the ladder of 100 four-bars
+/// (`models/bench/ladder.mbd`, 100 cut joints) with the cut-row PCG held to one iteration, where
+/// the Jacobi-preconditioned Schur complement takes up to four. The report names the cut joint with
+/// the largest residual and the option to raise.
+#[test]
+fn pcg_does_not_converge() {
+    let dir = scratch("pcg-model");
+    let text = std::fs::read_to_string(root().join("models/bench/ladder.mbd"))
+        .unwrap()
+        .replace(
+            "method natural_partitioning\n",
+            "method natural_partitioning { max_iterations 1 }\n",
+        );
+    assert!(text.contains("max_iterations 1"));
+    let model = write(&dir, "ladder.mbd", &text);
+    let (f, _) = failed_run("pcg", &model, &[]);
+    assert!(f["quantity"].as_str().unwrap().contains("PCG"), "{f}");
+    assert!(
+        f["cause"]
+            .as_str()
+            .unwrap()
+            .contains("did not converge in 1 iterations"),
+        "{f}"
+    );
+    // the ladder's cut joints are rungs `rr[i]` or rail joints; a named joint, not "system"
+    assert!(f["where"].as_str().unwrap().starts_with("joint '"), "{f}");
+    assert!(f["value"].as_f64().unwrap() > 1e-3, "{f}");
     assert!(
         f["hint"].as_str().unwrap().contains("max_iterations"),
         "{f}"

@@ -147,8 +147,16 @@ pub fn method_text(m: &MethodSpec) -> String {
                 Some(e) => format!("epsilon {}", short(*e)),
                 None => "epsilon default".into(),
             }];
-            if let MethodSpec::NaturalPartitioning { tolerance, .. } = m {
+            if let MethodSpec::NaturalPartitioning {
+                tolerance,
+                max_iterations,
+                ..
+            } = m
+            {
                 v.push(format!("tolerance {}", short(*tolerance)));
+                if let Some(n) = max_iterations {
+                    v.push(format!("max_iterations {n}"));
+                }
             }
             v
         }

@@ -104,8 +104,14 @@ pub fn check_method(method: &MethodSpec) -> Result<(), String> {
         MethodSpec::NaturalPartitioning {
             epsilon: e,
             tolerance,
+            max_iterations,
         } => {
             epsilon(e)?;
+            if let Some(n) = max_iterations {
+                if *n == 0 {
+                    return Err(format!("{name}: max_iterations must be at least 1"));
+                }
+            }
             positive("tolerance", *tolerance)
         }
         MethodSpec::StateTime { steps_per_element } => {
@@ -165,6 +171,12 @@ mod tests {
             MethodSpec::NaturalPartitioning {
                 epsilon: Some(f64::INFINITY),
                 tolerance: 1e-12,
+                max_iterations: None,
+            },
+            MethodSpec::NaturalPartitioning {
+                epsilon: None,
+                tolerance: 1e-12,
+                max_iterations: Some(0),
             },
         ];
         for m in bad {

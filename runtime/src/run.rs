@@ -514,7 +514,9 @@ fn check<S: System>(
 fn step_failure<S: System>(sys: &S, e: &StepError, t: f64, step: u64, h: f64) -> Failure {
     let layout = sys.layout();
     let location = match e {
-        StepError::Singular { row, .. } if *row < layout.rows => {
+        StepError::Singular { row, .. } | StepError::NoConvergence { row: Some(row), .. }
+            if *row < layout.rows =>
+        {
             format!("joint '{}'", layout.joints[layout.row_joint[*row]].name)
         }
         _ => "system".into(),
@@ -532,11 +534,20 @@ fn step_failure<S: System>(sys: &S, e: &StepError, t: f64, step: u64, h: f64) ->
             format!("{e}"),
             "the matrix has non-finite entries: the state diverged before this step; reduce the step".to_string(),
         ),
-        StepError::NoConvergence { what, residual, .. } => (
+        StepError::NoConvergence {
+            what,
+            residual,
+            iterations,
+            ..
+        } => (
             format!("{what} residual"),
             *residual,
             format!("{e}"),
-            format!("reduce the step (now {h:.3e} s) or raise max_iterations"),
+            if what.contains("PCG") {
+                format!("raise the PCG limit (`method natural_partitioning {{ max_iterations N }}`, now {iterations}) or loosen its `tolerance`; near a singular configuration of the loops, reduce the step (now {h:.3e} s)")
+            } else {
+                format!("reduce the step (now {h:.3e} s) or raise max_iterations")
+            },
         ),
     };
     Failure {

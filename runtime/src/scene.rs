@@ -781,6 +781,10 @@ pub enum MethodSpec {
         epsilon: Option<f64>,
         /// PCG relative tolerance.
         tolerance: f64,
+        /// Most PCG iterations per cut-row solve. `None`: the default rule,
+        /// `max(4 × cut rows, 50)`.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        max_iterations: Option<u32>,
     },
     /// State-time formulation (time elements, Newton on the trajectory).
     StateTime {
@@ -831,6 +835,7 @@ impl MethodSpec {
             "natural_partitioning" => MethodSpec::NaturalPartitioning {
                 epsilon: None,
                 tolerance: 1e-12,
+                max_iterations: None,
             },
             "state_time" => MethodSpec::StateTime {
                 steps_per_element: 4,

@@ -766,7 +766,9 @@ fn each_float(s: &mut Scene, f: &mut dyn FnMut(&mut f64)) {
             }
         }
         MethodSpec::ImplicitTrapezoid { tolerance, .. } => f(tolerance),
-        MethodSpec::NaturalPartitioning { epsilon, tolerance } => {
+        MethodSpec::NaturalPartitioning {
+            epsilon, tolerance, ..
+        } => {
             if let Some(e) = epsilon {
                 f(e);
             }

@@ -225,8 +225,16 @@ pub fn describe_options(spec: &MethodSpec) -> String {
             tolerance,
             max_iterations,
         } => format!("Newton tolerance {tolerance:e}, ≤ {max_iterations} iterations"),
-        MethodSpec::NaturalPartitioning { epsilon, tolerance } => {
-            format!("{}, PCG tolerance {tolerance:e}", eps(epsilon, "default"))
+        MethodSpec::NaturalPartitioning {
+            epsilon,
+            tolerance,
+            max_iterations,
+        } => {
+            let mut s = format!("{}, PCG tolerance {tolerance:e}", eps(epsilon, "default"));
+            if let Some(n) = max_iterations {
+                s.push_str(&format!(", ≤ {n} PCG iterations"));
+            }
+            s
         }
         MethodSpec::StateTime { steps_per_element } => {
             format!("{steps_per_element} steps per time element")

@@ -38,7 +38,7 @@ pub(crate) fn method_options(name: &str) -> &'static [&'static str] {
         "baumgarte" => &["alpha", "beta"],
         "penalty" => &["epsilon"],
         "implicit_trapezoid" => &["tolerance", "max_iterations"],
-        "natural_partitioning" => &["epsilon", "tolerance"],
+        "natural_partitioning" => &["epsilon", "tolerance", "max_iterations"],
         "state_time" => &["steps_per_element"],
         _ => &[],
     }
@@ -356,6 +356,9 @@ impl<'a> Lowerer<'a> {
             }
             (MethodSpec::ImplicitTrapezoid { max_iterations, .. }, "max_iterations") => {
                 *max_iterations = self.count(v, sc, "max_iterations")?
+            }
+            (MethodSpec::NaturalPartitioning { max_iterations, .. }, "max_iterations") => {
+                *max_iterations = Some(self.count(v, sc, "max_iterations")?)
             }
             (MethodSpec::StateTime { steps_per_element }, "steps_per_element") => {
                 *steps_per_element = self.count(v, sc, "steps_per_element")?

@@ -113,9 +113,14 @@ pub fn make<'a, S: System + 'a>(
             *max_iterations,
             start,
         )?),
-        M::NaturalPartitioning { epsilon, tolerance } => {
-            Box::new(natural::Natural::new(sys, h, *epsilon, *tolerance, start)?)
-        }
+        M::NaturalPartitioning {
+            epsilon,
+            tolerance,
+            max_iterations,
+        } => Box::new(
+            natural::Natural::new(sys, h, *epsilon, *tolerance, start)?
+                .with_pcg_limit(*max_iterations),
+        ),
         M::StateTime { .. } => return Err(StartError::Unsupported(method.name())),
     })
 }
@@ -165,7 +170,19 @@ pub enum StepError {
         iterations: u32,
         /// Final residual.
         residual: f64,
+        /// The constraint row with the largest residual, where the iteration has rows.
+        row: Option<usize>,
     },
+}
+
+/// The index and magnitude of the largest entry of `res` by absolute value (`None` if empty).
+pub(crate) fn worst_entry(res: &[f64]) -> Option<(usize, f64)> {
+    res.iter()
+        .enumerate()
+        .fold(None, |best: Option<(usize, f64)>, (i, v)| match best {
+            Some((_, b)) if b >= v.abs() => best,
+            _ => Some((i, v.abs())),
+        })
 }
 
 /// Per-step statistics.

@@ -448,6 +448,7 @@ impl Partitioning {
             what: "coordinate partitioning position projection",
             iterations: MAX_NEWTON,
             residual: f64::NAN,
+            row: None,
         })
     }
 

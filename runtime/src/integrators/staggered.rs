@@ -605,10 +605,12 @@ impl TwoStage {
                 self.lambda[r] += self.dl[r];
             }
         }
+        let worst = super::worst_entry(&self.res);
         Err(StepError::NoConvergence {
             what: "staggered LINT Newton iteration",
             iterations: MAX_NEWTON,
-            residual: self.res.iter().fold(0.0, |a: f64, b| a.max(b.abs())),
+            residual: worst.map_or(0.0, |w| w.1),
+            row: worst.map(|w| w.0),
         })
     }
 

@@ -428,6 +428,7 @@ impl<S: System> Integrator<S> for Trapezoid {
                 what: "implicit trapezoid Newton iteration",
                 iterations: it,
                 residual,
+                row: None,
             });
         }
         // Velocity projection onto B u̇ + b = 0 at the end configuration (as in RATTLE): the

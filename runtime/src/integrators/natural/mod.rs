@@ -155,6 +155,8 @@ pub struct Natural {
     work: [Vec<f64>; 4],
     tol: f64,
     rtol: f64,
+    /// Most PCG iterations per cut-row solve (`None`: `max(4 × rows, 50)`).
+    pcg_limit: Option<u32>,
 
     // statistics
     steps: u64,
@@ -359,6 +361,7 @@ impl Natural {
             work: [vec![0.0; m], vec![0.0; m], vec![0.0; m], vec![0.0; m]],
             tol: 0.0,
             rtol: tolerance,
+            pcg_limit: None,
 
             steps: 0,
             gyro_total: 0,
@@ -463,6 +466,14 @@ impl Natural {
         s.vs.copy_from_slice(&vel0);
         s.cur = 0;
         Ok(s)
+    }
+
+    /// Caps the PCG iterations of each cut-row solve at `limit` (`None`: the default rule,
+    /// `max(4 × cut rows, 50)`). A solve that stops there short of its tolerance ends the
+    /// step with [`StepError::NoConvergence`] unless its residual is already below 1e-3.
+    pub fn with_pcg_limit(mut self, limit: Option<u32>) -> Natural {
+        self.pcg_limit = limit;
+        self
     }
 
     /// The ε in use for the cut rows (the largest per-row value with the default rule).
@@ -1093,7 +1104,9 @@ impl Natural {
                     diag: &self.diag,
                     h2: h * h,
                 };
-                let max_it = (4 * self.res.len()).max(50) as u32;
+                let max_it = self
+                    .pcg_limit
+                    .unwrap_or_else(|| (4 * self.res.len()).max(50) as u32);
                 pcg(
                     &mut ops,
                     &self.res,
@@ -1109,10 +1122,12 @@ impl Natural {
             self.pcg_solves += 1;
             self.pcg_max = self.pcg_max.max(stats.iterations);
             if !stats.converged && stats.relative_residual > 1e-3 {
+                // Name the cut row whose Newton residual drives the solve.
                 return Err(StepError::NoConvergence {
                     what: "cut-joint PCG (natural partitioning)",
                     iterations: stats.iterations,
                     residual: stats.relative_residual,
+                    row: super::worst_entry(&self.res).map(|w| self.tree.cut_rows[w.0]),
                 });
             }
             for i in 0..self.dl.len() {
@@ -1124,10 +1139,12 @@ impl Natural {
             }
         }
         if !converged {
+            let worst = super::worst_entry(&self.res);
             return Err(StepError::NoConvergence {
                 what: "natural-partitioning cut-joint Newton iteration",
                 iterations: MAX_NEWTON,
-                residual: self.res.iter().fold(0.0, |a: f64, b| a.max(b.abs())),
+                residual: worst.map_or(0.0, |w| w.1),
+                row: worst.map(|w| self.tree.cut_rows[w.0]),
             });
         }
         Ok((newton, pcg_iters))
