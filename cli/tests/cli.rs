@@ -1,17 +1,9 @@
 //! End-to-end runs of the `mbdc` binary: check and fmt.
 
-use std::path::{Path, PathBuf};
-use std::process::Command;
+mod common;
+use common::{command, root};
 
-fn mbdc() -> Command {
-    let mut c = Command::new(env!("CARGO_BIN_EXE_mbdc"));
-    c.env("NO_COLOR", "1");
-    c
-}
-
-fn root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
-}
+use std::path::PathBuf;
 
 fn tmp(name: &str, text: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("mbdc-cli-test-{}", std::process::id()));
@@ -23,7 +15,7 @@ fn tmp(name: &str, text: &str) -> PathBuf {
 
 #[test]
 fn check_prints_a_summary() {
-    let out = mbdc()
+    let out = command()
         .arg("check")
         .arg(root().join("models/slider_crank.mbd"))
         .output()
@@ -42,7 +34,7 @@ fn check_prints_a_summary() {
 
 #[test]
 fn check_with_overrides_effects_and_json() {
-    let out = mbdc()
+    let out = command()
         .args(["check", "--set", "N=3", "--effects"])
         .arg(root().join("models/chain.mbd"))
         .output()
@@ -59,7 +51,7 @@ fn check_with_overrides_effects_and_json() {
         "{s}"
     );
 
-    let out = mbdc()
+    let out = command()
         .args(["check", "--json"])
         .arg(root().join("models/torque_free.mbd"))
         .output()
@@ -69,7 +61,7 @@ fn check_with_overrides_effects_and_json() {
     assert_eq!(v["name"], "torque_free");
     assert_eq!(v["bodies"][0]["angular_velocity"][1], 2.0);
 
-    let out = mbdc()
+    let out = command()
         .args(["check", "--set", "M=3"])
         .arg(root().join("models/chain.mbd"))
         .output()
@@ -81,7 +73,7 @@ fn check_with_overrides_effects_and_json() {
 
 #[test]
 fn check_fails_with_rendered_diagnostics() {
-    let out = mbdc()
+    let out = command()
         .arg("check")
         .arg(root().join("tests/failures/unknown_body.mbd"))
         .output()
@@ -92,7 +84,7 @@ fn check_fails_with_rendered_diagnostics() {
     assert!(e.contains("did you mean `rod1`?"), "{e}");
     assert!(e.contains("unknown_body.mbd:4:47"), "{e}");
     assert!(e.contains("1 error"), "{e}");
-    let out = mbdc()
+    let out = command()
         .arg("check")
         .arg("no/such/file.mbd")
         .output()
@@ -104,7 +96,7 @@ fn check_fails_with_rendered_diagnostics() {
 fn fmt_rewrites_and_checks() {
     let messy = "model m {\n  body b { mass 1 kg ;inertia sphere( radius:1 cm ) }\n  simulate { duration 1 s; step 1 ms }\n}\n";
     let p = tmp("messy.mbd", messy);
-    let out = mbdc()
+    let out = command()
         .args(["fmt", "--check"])
         .arg(&p)
         .output()
@@ -116,18 +108,18 @@ fn fmt_rewrites_and_checks() {
         messy,
         "--check must not write"
     );
-    let out = mbdc().arg("fmt").arg(&p).output().expect("runs");
+    let out = command().arg("fmt").arg(&p).output().expect("runs");
     assert!(out.status.success());
     let formatted = std::fs::read_to_string(&p).unwrap();
     assert_ne!(formatted, messy);
-    let out = mbdc()
+    let out = command()
         .args(["fmt", "--check"])
         .arg(&p)
         .output()
         .expect("runs");
     assert!(out.status.success(), "formatted file is not stable");
     // The formatted file still checks.
-    let out = mbdc().arg("check").arg(&p).output().expect("runs");
+    let out = command().arg("check").arg(&p).output().expect("runs");
     assert!(
         out.status.success(),
         "{}",
@@ -135,7 +127,7 @@ fn fmt_rewrites_and_checks() {
     );
     // A file that does not parse is an error, and is left alone.
     let bad = tmp("bad.mbd", "model m {\n");
-    let out = mbdc().arg("fmt").arg(&bad).output().expect("runs");
+    let out = command().arg("fmt").arg(&bad).output().expect("runs");
     assert!(!out.status.success());
     assert_eq!(std::fs::read_to_string(&bad).unwrap(), "model m {\n");
 }

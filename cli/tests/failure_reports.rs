@@ -10,31 +10,10 @@
 //! The constraint that drifts past its tolerance (the watchdog's violation check) is covered by
 //! `run_models.rs` (`a_failing_run_reports_and_keeps_its_frames`, with the halve-step retry).
 
+mod common;
+use common::{mbdc, root, s, scratch};
+
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
-
-fn mbdc(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_mbdc"))
-        .env("NO_COLOR", "1")
-        .args(args)
-        .output()
-        .expect("mbdc runs")
-}
-
-fn root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
-}
-
-fn scratch(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("mbdc-failure-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
-}
 
 /// Run `model` (a file) with `args` into a fresh folder; expect a failed run and check the
 /// report and the folder. Returns the summary's `failure` object and the stderr.

@@ -1,31 +1,10 @@
 //! End-to-end: the plots `mbdc run` writes next to its CSV files (also for a run that
 //! stops), and `mbdc plot` redrawing them or drawing chosen quantities.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+mod common;
+use common::{mbdc, root, s, scratch};
 
-fn root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
-}
-
-fn scratch(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("mbdc-plots-test-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).expect("temp dir");
-    d
-}
-
-fn mbdc(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_mbdc"))
-        .env("NO_COLOR", "1")
-        .args(args)
-        .output()
-        .expect("mbdc runs")
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().expect("utf-8 path")
-}
+use std::path::Path;
 
 /// The texts of a well-formed SVG file, and its data series.
 fn svg(path: &Path) -> (Vec<String>, Vec<String>) {

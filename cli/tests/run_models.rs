@@ -1,17 +1,9 @@
 //! End-to-end runs of `mbdc run --interp` on every rigid model, and of a run that fails.
 
+mod common;
+use common::{command, root};
+
 use std::path::{Path, PathBuf};
-use std::process::Command;
-
-fn mbdc() -> Command {
-    let mut c = Command::new(env!("CARGO_BIN_EXE_mbdc"));
-    c.env("NO_COLOR", "1");
-    c
-}
-
-fn root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
-}
 
 fn out_dir(name: &str) -> PathBuf {
     let d = std::env::temp_dir().join(format!("mbdc-run-test-{}-{name}", std::process::id()));
@@ -42,7 +34,7 @@ fn every_rigid_model_runs_to_the_end() {
         ("deployment_arm", 1e-2),
     ] {
         let dir = out_dir(model);
-        let out = mbdc()
+        let out = command()
             .args(["run", "--interp", "-o"])
             .arg(&dir)
             .arg(root().join(format!("models/{model}.mbd")))
@@ -82,7 +74,7 @@ fn a_failing_run_reports_and_keeps_its_frames() {
         "model stiff_penalty {\n gravity (0, 0, -9.81) m/s^2\n body rod { mass 1 kg; inertia rod(length: 1 m, radius: 1 cm); position (0.5, 0, 0) m; orientation axis_angle((0, 1, 0), 90 deg) }\n joint pin = revolute(ground @ (0, 0, 0), rod @ (0, 0, 0.5) m, axis: (0, 1, 0))\n simulate { duration 1 s; step 1 ms; method penalty { epsilon 1e-12 } }\n}\n",
     )
     .unwrap();
-    let out = mbdc()
+    let out = command()
         .args(["run", "--interp", "-o"])
         .arg(&dir)
         .arg(&model)
@@ -122,7 +114,7 @@ fn a_failing_run_reports_and_keeps_its_frames() {
         "frame at {last_t} after the failure at {t_fail}"
     );
     // and halving the step rescues it
-    let out = mbdc()
+    let out = command()
         .args(["run", "--interp", "--on-failure", "halve-step", "-q", "-o"])
         .arg(&dir)
         .arg(&model)

@@ -1,21 +1,13 @@
 //! End-to-end runs of `mbdc sweep`: the measured convergence orders on scenes with exact
 //! references, the files it writes, and runs that fail staying in the results.
 
-use std::path::{Path, PathBuf};
+mod common;
+use common::{root, scratch};
+
+use std::path::Path;
 use std::process::{Command, Output};
 
 use serde_json::Value;
-
-fn root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
-}
-
-fn scratch(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("mbdc-sweep-test-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).expect("temp dir");
-    d
-}
 
 /// `mbdc sweep --interp FILE -o OUT EXTRA...`, which must succeed.
 fn sweep(file: &Path, out: &Path, extra: &[&str]) -> Output {

@@ -8,15 +8,13 @@
 //! classical Runge–Kutta at a step so small that its error (~1e-13 rad) is far below the
 //! swept errors. The scene is the model file itself with the `reference` block added.
 
-use std::path::{Path, PathBuf};
+mod common;
+use common::root;
+
 use std::process::Command;
 
 use mbdc_runtime::fn1::sncndn;
 use serde_json::Value;
-
-fn root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
-}
 
 /// Principal moments of the model, kg·m².
 const J: [f64; 3] = [1.0, 2.0, 3.0];

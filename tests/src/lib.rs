@@ -162,3 +162,47 @@ pub fn position_difference(a: &Rec, b: &Rec) -> f64 {
         .zip(&b.pose)
         .fold(0.0, |m, (p, q)| m.max((p.r - q.r).norm()))
 }
+
+/// The heavy symmetric top of `models/hard/top.mbd` in steady precession, and what the tests
+/// measure on it: one copy of the theory for every method's test.
+pub mod top {
+    use super::Rec;
+    use nalgebra::Vector3;
+
+    /// The tilt of the axis from the vertical, radians (30°, as in the model).
+    pub fn theta() -> f64 {
+        30f64.to_radians()
+    }
+
+    /// The steady precession rate Ω, rad/s: the slow root of m g l = Ω(C n − A'Ω cos θ) with
+    /// the model's m = 1 kg, l = 0.1 m, A = 0.002 kg·m², A' = A + m l², C = 0.004 kg·m²,
+    /// n = 100 rad/s, g = 9.81 m/s² (Goldstein §5.7); ≈ 2.632 rad/s.
+    pub fn precession_rate() -> f64 {
+        let (m, l, a, c, g, n) = (1.0f64, 0.1f64, 0.002f64, 0.004f64, 9.81f64, 100.0f64);
+        let th = theta();
+        let ap = a + m * l * l;
+        (c * n - (c * c * n * n - 4.0 * ap * th.cos() * m * g * l).sqrt()) / (2.0 * ap * th.cos())
+    }
+
+    /// The tilt of the top's axis (body z) from the vertical in a frame, radians.
+    pub fn tilt(f: &Rec) -> f64 {
+        (f.pose[0].c * Vector3::z()).z.acos()
+    }
+
+    /// The mean precession rate over `frames`: the azimuth of the axis, unwrapped, from the
+    /// first frame to the last, over the time between them.
+    pub fn measured_precession(frames: &[Rec]) -> f64 {
+        let az = |f: &Rec| {
+            let e = f.pose[0].c * Vector3::z();
+            e.y.atan2(e.x)
+        };
+        let turn: f64 = frames
+            .windows(2)
+            .map(|w| {
+                (az(&w[1]) - az(&w[0]) + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU)
+                    - std::f64::consts::PI
+            })
+            .sum();
+        turn / (frames[frames.len() - 1].t - frames[0].t)
+    }
+}

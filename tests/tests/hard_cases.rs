@@ -200,46 +200,15 @@ fn fast_spin_near_the_stability_limit() {
 #[test]
 fn heavy_top_precesses_as_theory_says() {
     let scene = load_model("hard/top.mbd");
-    let (m, l, a, c, g, th, n) = (
-        1.0f64,
-        0.1f64,
-        0.002f64,
-        0.004f64,
-        9.81f64,
-        30f64.to_radians(),
-        100.0f64,
-    );
-    let ap = a + m * l * l;
-    let omega =
-        (c * n - (c * c * n * n - 4.0 * ap * th.cos() * m * g * l).sqrt()) / (2.0 * ap * th.cos());
-    let tilt = |f: &Rec| (f.pose[0].c * Vector3::z()).z.acos().to_degrees();
+    let omega = top::precession_rate();
+    let tilt = |f: &Rec| top::tilt(f).to_degrees();
     let tr = simulate(&scene, method("staggered"), 5e-4, 5.0, 20);
     assert!(tr.report.finished, "{:?}", tr.report.failure);
     let worst = tr
         .frames
         .iter()
         .fold(0.0f64, |a, f| a.max((tilt(f) - 30.0).abs()));
-    // precession: azimuth of the axis, unwrapped, fitted over the run
-    let az: Vec<f64> = tr
-        .frames
-        .iter()
-        .map(|f| {
-            let e = f.pose[0].c * Vector3::z();
-            e.y.atan2(e.x)
-        })
-        .collect();
-    let mut unwrapped = vec![az[0]];
-    for k in 1..az.len() {
-        let mut d = az[k] - az[k - 1];
-        while d > std::f64::consts::PI {
-            d -= std::f64::consts::TAU;
-        }
-        while d < -std::f64::consts::PI {
-            d += std::f64::consts::TAU;
-        }
-        unwrapped.push(unwrapped[k - 1] + d);
-    }
-    let rate = (unwrapped.last().unwrap() - unwrapped[0]) / (tr.last().t - tr.frames[0].t);
+    let rate = top::measured_precession(&tr.frames);
     eprintln!("top: tilt within {worst:.2e}°, precession {rate:.6} rad/s, theory {omega:.6} (relative {:.1e})", (rate - omega).abs() / omega);
     assert!(worst < 1e-3, "{worst}");
     assert!((rate - omega).abs() < 1e-4 * omega, "{rate} vs {omega}");

@@ -9,7 +9,7 @@
 //! - A ladder of 20 four-bar loops stays closed (cut-joint rows below 1e-9 m over 1 s).
 
 use mbdc_runtime::scene::Scene;
-use mbdc_tests::{load_model, method, position_difference, simulate, Trajectory};
+use mbdc_tests::{load_model, method, position_difference, simulate, top, Trajectory};
 
 fn load_with(path: &str, set: &str) -> Scene {
     let path = format!("{}/../models/{path}", env!("CARGO_MANIFEST_DIR"));
@@ -175,41 +175,15 @@ fn a_ladder_of_20_loops_stays_closed() {
 /// the theoretical rate. With two leapfrog sequences exchanging ω the top fell.
 #[test]
 fn heavy_top_stays_up() {
-    use nalgebra::Vector3;
     let scene = load_model("hard/top.mbd");
-    let (m, l, a, c, g, th, n) = (
-        1.0f64,
-        0.1f64,
-        0.002,
-        0.004,
-        9.81,
-        30f64.to_radians(),
-        100.0,
-    );
-    let ap = a + m * l * l;
-    let omega =
-        (c * n - (c * c * n * n - 4.0 * ap * th.cos() * m * g * l).sqrt()) / (2.0 * ap * th.cos());
+    let omega = top::precession_rate();
     let t = simulate(&scene, method("natural_partitioning"), 5e-4, 2.0, 10);
     finished("top", "natural_partitioning", 5e-4, &t);
-    let tilt = |f: &mbdc_tests::Rec| (f.pose[0].c * Vector3::z()).z.acos();
     let worst = t
         .frames
         .iter()
-        .fold(0.0f64, |a, f| a.max((tilt(f) - th).abs()));
-    let az: Vec<f64> = t
-        .frames
-        .iter()
-        .map(|f| {
-            let e = f.pose[0].c * Vector3::z();
-            e.y.atan2(e.x)
-        })
-        .collect();
-    let mut turn = 0.0;
-    for w in az.windows(2) {
-        turn += (w[1] - w[0] + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU)
-            - std::f64::consts::PI;
-    }
-    let rate = turn / (t.last().t - t.frames[0].t);
+        .fold(0.0f64, |a, f| a.max((top::tilt(f) - top::theta()).abs()));
+    let rate = top::measured_precession(&t.frames);
     let e0 = t.frames[0].energy();
     eprintln!(
         "top: tilt error {worst:.2e} rad, precession {rate:.6} rad/s (theory {omega:.6}), \
