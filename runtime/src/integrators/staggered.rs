@@ -920,6 +920,15 @@ fn cint_body(
     )
 }
 
+/// The velocity half a step ahead of `v1` by second-order extrapolation from the velocity
+/// `v0` one step before it: `1.5 v₁ − 0.5 v₀` (the sequence's velocities lag by h/2).
+fn half_ahead(v1: &Twist, v0: &Twist) -> Twist {
+    Twist {
+        v: v1.v * 1.5 - v0.v * 0.5,
+        w: v1.w * 1.5 - v0.w * 0.5,
+    }
+}
+
 /// The implicit midpoint rule for the rotational equation over `h`:
 /// `J(ω⁺ − ω)/h + ω̄ × Jω̄ = τ`, `ω̄ = (ω + ω⁺)/2`, solved for ω⁺ by Newton iterations
 /// (started from the explicit update). Conserves `ωᵀJω` and `|Jω|` when τ = 0.
@@ -969,10 +978,7 @@ impl<S: System> Integrator<S> for TwoStage {
                     self.vel_sync[i] = if self.half_steps == 0 {
                         v0
                     } else {
-                        Twist {
-                            v: v1.v * 1.5 - v0.v * 0.5,
-                            w: v1.w * 1.5 - v0.w * 0.5,
-                        }
+                        half_ahead(&v1, &v0)
                     };
                 }
             }
@@ -1013,18 +1019,14 @@ impl<S: System> Integrator<S> for TwoStage {
                     continue;
                 }
                 let (v1, v0) = (self.seq[0].vel[i], self.vel_prev[i]);
-                let w = if self.midpoint_gyro {
+                let mut v = half_ahead(&v1, &v0);
+                if self.midpoint_gyro {
                     let m = &layout.mass[i];
                     let wb = (v0.w + v1.w) * 0.5;
                     let tau = m.j * (v1.w - v0.w) / h + wb.cross(&(m.j * wb));
-                    midpoint_kick(m, &v1.w, &tau, h / 2.0)
-                } else {
-                    v1.w * 1.5 - v0.w * 0.5
-                };
-                out.twist[i] = Twist {
-                    v: v1.v * 1.5 - v0.v * 0.5,
-                    w,
-                };
+                    v.w = midpoint_kick(m, &v1.w, &tau, h / 2.0);
+                }
+                out.twist[i] = v;
             }
         } else {
             out.twist.copy_from_slice(&self.seq[1 - self.x].vel);
