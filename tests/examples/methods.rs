@@ -8,6 +8,7 @@ use std::time::Instant;
 
 use mbdc_runtime::interp::Interp;
 use mbdc_runtime::run::{self, Frame, Observer, OnFailure, RunConfig, Watchdog};
+use mbdc_runtime::scene::MethodSpec;
 use mbdc_tests::{load_model, method};
 
 struct Quiet;
@@ -16,14 +17,11 @@ impl Observer for Quiet {
 }
 
 fn main() {
-    let methods = [
-        "staggered",
-        "baumgarte",
-        "penalty",
-        "coordinate_partitioning",
-        "implicit_trapezoid",
-        "natural_partitioning",
-    ];
+    // every method the runtime integrates (state_time is a formulation without a stepper)
+    let methods: Vec<&str> = MethodSpec::NAMES
+        .into_iter()
+        .filter(|n| *n != "state_time")
+        .collect();
     let scenes = [
         ("double_pendulum_3d.mbd", 1e-3, 2000u64),
         ("chain.mbd", 1e-4, 300),

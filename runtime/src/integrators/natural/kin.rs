@@ -186,8 +186,10 @@ pub struct TreeJointKin {
     pub xv: Matrix3<f64>,
     /// `w_c` gets `xw w_p`.
     pub xw: Matrix3<f64>,
-    /// Columns of `S`: `[v (world), w (child body)]`; the first `dof` are used.
-    pub s: [[f64; 6]; 6],
+    /// Columns of `S`: `[v (world), w (child body)]`; the first `dof` are used. A tree
+    /// joint has at most 3 rates; `dof == 6` (a free root) means `S = I₆`
+    /// ([`TreeJointKin::cols`]).
+    pub s: [[f64; 6]; 3],
     /// Lever from the parent's mass centre to the joint point (world).
     pub lever_p: Vector3<f64>,
     /// Lever from the child's mass centre to the joint point (world).
@@ -202,11 +204,18 @@ pub struct TreeJointKin {
     pub trans: [Vector3<f64>; 2],
     /// Number of slide axes.
     pub ntrans: usize,
-    /// Parent rotation body → world.
-    pub cp: Matrix3<f64>,
-    /// Child rotation body → world.
-    pub cc: Matrix3<f64>,
 }
+
+/// The columns of `S = I₆` (a free root).
+const IDENT6: [[f64; 6]; 6] = {
+    let mut m = [[0.0; 6]; 6];
+    let mut i = 0;
+    while i < 6 {
+        m[i][i] = 1.0;
+        i += 1;
+    }
+    m
+};
 
 impl Default for TreeJointKin {
     fn default() -> Self {
@@ -216,7 +225,7 @@ impl Default for TreeJointKin {
             absolute: false,
             xv: Matrix3::zeros(),
             xw: Matrix3::identity(),
-            s: [[0.0; 6]; 6],
+            s: [[0.0; 6]; 3],
             lever_p: Vector3::zeros(),
             lever_c: Vector3::zeros(),
             rot: [Vector3::zeros(); 2],
@@ -224,13 +233,21 @@ impl Default for TreeJointKin {
             nrot: 0,
             trans: [Vector3::zeros(); 2],
             ntrans: 0,
-            cp: Matrix3::identity(),
-            cc: Matrix3::identity(),
         }
     }
 }
 
 impl TreeJointKin {
+    /// The columns of `S` (all of them: `dof` columns, `I₆` for a free root).
+    #[inline]
+    pub fn cols(&self) -> &[[f64; 6]] {
+        if self.dof == 6 {
+            &IDENT6
+        } else {
+            &self.s[..self.dof]
+        }
+    }
+
     /// `X u_p`: the child's twist when every rate is zero.
     #[inline]
     pub fn transport(&self, up: &Twist) -> Twist {
@@ -254,7 +271,7 @@ impl TreeJointKin {
     #[inline]
     pub fn s_mul(&self, x: &[f64]) -> Twist {
         let mut o = [0.0; 6];
-        for (k, col) in self.s.iter().enumerate().take(self.dof) {
+        for (k, col) in self.cols().iter().enumerate() {
             for i in 0..6 {
                 o[i] += col[i] * x[k];
             }
@@ -269,7 +286,7 @@ impl TreeJointKin {
     #[inline]
     pub fn s_t(&self, f: &Wrench, out: &mut [f64]) {
         let g = [f.f.x, f.f.y, f.f.z, f.t.x, f.t.y, f.t.z];
-        for (k, col) in self.s.iter().enumerate().take(self.dof) {
+        for (k, col) in self.cols().iter().enumerate() {
             out[k] = (0..6).map(|i| col[i] * g[i]).sum();
         }
     }
@@ -286,15 +303,16 @@ impl TreeJointKin {
     }
 
     /// The joint rates of the twists `up`, `uc` (exact when `uc = X up + S q̇`; otherwise
-    /// the rates of the relative motion projected on the joint's free directions). Entries
-    /// beyond `dof` are zero.
-    pub fn rates(&self, up: &Twist, uc: &Twist) -> [f64; 6] {
+    /// the rates of the relative motion projected on the joint's free directions), with
+    /// `cp`, `cc` the parent's and the child's rotations (body → world) at which the
+    /// blocks were built. Entries beyond `dof` are zero.
+    pub fn rates(&self, cp: &Matrix3<f64>, cc: &Matrix3<f64>, up: &Twist, uc: &Twist) -> [f64; 6] {
         let mut out = [0.0; 6];
         if self.absolute {
             out[..3].copy_from_slice(uc.w.as_slice());
             return out;
         }
-        let (wp, wc) = (self.cp * up.w, self.cc * uc.w);
+        let (wp, wc) = (cp * up.w, cc * uc.w);
         let wrel = (wc - wp) * self.sigma;
         match self.nrot {
             0 => {}
@@ -321,9 +339,16 @@ impl TreeJointKin {
 
     /// The velocity-product term `κ = Ȧq̇` (child acceleration with zero `q̈`, relative to
     /// the transported parent acceleration) at the twists `up`, `uc` with rates `qd`
-    /// (from [`TreeJointKin::rates`]).
-    pub fn kappa(&self, up: &Twist, uc: &Twist, qd: &[f64; 6]) -> Twist {
-        let (wp, wc) = (self.cp * up.w, self.cc * uc.w);
+    /// (from [`TreeJointKin::rates`]); `cp`, `cc` as there.
+    pub fn kappa(
+        &self,
+        cp: &Matrix3<f64>,
+        cc: &Matrix3<f64>,
+        up: &Twist,
+        uc: &Twist,
+        qd: &[f64; 6],
+    ) -> Twist {
+        let (wp, wc) = (cp * up.w, cc * uc.w);
         let centripetal = wp.cross(&wp.cross(&self.lever_p)) - wc.cross(&wc.cross(&self.lever_c));
         if self.absolute {
             return Twist {
@@ -345,15 +370,14 @@ impl TreeJointKin {
         let kv = -kw.cross(&self.lever_c) + centripetal + 2.0 * self.sigma * wa.cross(&slide);
         Twist {
             v: kv,
-            w: self.cc.tr_mul(&kw),
+            w: cc.tr_mul(&kw),
         }
     }
 
-    /// Fill `xv`, `xw` and `s` from the levers and axes.
+    /// Fill `xv`, `xw` and `s` from the levers and axes (`cp`, `cc`: the parent's and the
+    /// child's rotations).
     #[inline]
-    fn build(&mut self) {
-        let cp = self.cp;
-        let cc = self.cc;
+    fn build(&mut self, cp: &Matrix3<f64>, cc: &Matrix3<f64>) {
         if self.absolute {
             self.xv = -skew(&self.lever_p) * cp;
             self.xw = Matrix3::zeros();
@@ -370,7 +394,7 @@ impl TreeJointKin {
             return;
         }
         self.xv = -skew(&(self.lever_p - self.lever_c)) * cp;
-        self.xw = cc.tr_mul(&cp);
+        self.xw = cc.tr_mul(cp);
         let sg = self.sigma;
         for k in 0..self.nrot {
             let e = self.rot[k];
@@ -416,8 +440,6 @@ fn frame(
     };
     out.sigma = if child_is_b { 1.0 } else { -1.0 };
     out.absolute = false;
-    out.cp = parent.c;
-    out.cc = child.c;
     (out.lever_p, out.lever_c) = if child_is_b { (la, lb) } else { (lb, la) };
     out.nrot = 0;
     out.ntrans = 0;
@@ -445,7 +467,7 @@ pub fn spherical(
 ) {
     frame(g, true, child_is_b, parent, child, out);
     out.absolute = true;
-    out.build();
+    out.build(&parent.c, &child.c);
 }
 
 /// Revolute joint blocks: `q̇ = θ̇` about `za`.
@@ -460,7 +482,7 @@ pub fn revolute(
     out.rot[0] = axis_a(g, child_is_b, parent, child, 2);
     out.rot_on_a[0] = true;
     out.nrot = 1;
-    out.build();
+    out.build(&parent.c, &child.c);
 }
 
 /// Universal joint blocks: `q̇ = (θ̇₁ about za, θ̇₂ about zb)`.
@@ -476,13 +498,13 @@ pub fn universal(
     out.rot[1] = axis_b(g, child_is_b, parent, child, 2);
     out.rot_on_a = [true, false];
     out.nrot = 2;
-    out.build();
+    out.build(&parent.c, &child.c);
 }
 
 /// Fixed joint blocks: no rates.
 pub fn fixed(g: &JointGeom, child_is_b: bool, parent: &Pose, child: &Pose, out: &mut TreeJointKin) {
     frame(g, true, child_is_b, parent, child, out);
-    out.build();
+    out.build(&parent.c, &child.c);
 }
 
 /// Prismatic joint blocks: `q̇ = ṡ` along `za`.
@@ -496,7 +518,7 @@ pub fn prismatic(
     frame(g, false, child_is_b, parent, child, out);
     out.trans[0] = axis_a(g, child_is_b, parent, child, 2);
     out.ntrans = 1;
-    out.build();
+    out.build(&parent.c, &child.c);
 }
 
 /// Cylindrical joint blocks: `q̇ = (θ̇ about za, ṡ along za)`.
@@ -514,7 +536,7 @@ pub fn cylindrical(
     out.nrot = 1;
     out.trans[0] = za;
     out.ntrans = 1;
-    out.build();
+    out.build(&parent.c, &child.c);
 }
 
 /// Planar joint blocks: `q̇ = (θ̇ about za, ṡ₁ along xa, ṡ₂ along ya)`.
@@ -532,7 +554,7 @@ pub fn planar(
     out.trans[0] = axis_a(g, child_is_b, parent, child, 0);
     out.trans[1] = axis_a(g, child_is_b, parent, child, 1);
     out.ntrans = 2;
-    out.build();
+    out.build(&parent.c, &child.c);
 }
 
 /// The blocks of a tree joint of kind `kind` (dispatches to the per-kind functions).
@@ -783,7 +805,7 @@ pub(crate) mod tests {
             }
         }
         // The rates are recovered.
-        let back = k.rates(&up, &uc);
+        let back = k.rates(&parent.c, &child.c, &up, &uc);
         for c in 0..k.dof {
             assert!(
                 (back[c] - qd[c]).abs() < 1e-12 * scale,
@@ -791,7 +813,7 @@ pub(crate) mod tests {
             );
         }
         // B κ = γ with a zero parent acceleration.
-        let kap = k.kappa(&up, &uc, &back);
+        let kap = k.kappa(&parent.c, &child.c, &up, &uc, &back);
         for r in 0..rows {
             let res = row_dot(&ev.jac[r], child_is_b, &Twist::default(), &kap, true);
             assert!(

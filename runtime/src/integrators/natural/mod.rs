@@ -47,10 +47,13 @@
 //! grows at the rate the top would fall without spin) and decorrelate on chaotic scenes;
 //! see [`super::staggered`]. Each step:
 //!
-//! 1. pass A at τ: the joint blocks, `Ȧq̇` and the gyroscopic term `ω̄ × Jω̄` at an estimate
-//!    of the synchronous velocity `ū = (u(τ − h/2) + u(τ + h/2))/2` (first the
-//!    extrapolation `(3u(τ − h/2) − u(τ − 3h/2))/2`), which enter the tree right-hand side
-//!    `Aᵀ(F − ω̄ × Jω̄ − M Ȧq̇)`; pass B: the factorization of `AᵀMA` at τ;
+//! 1. one leaf → root sweep at τ: per body the joint blocks, the velocity-product term `κ`
+//!    (`Ȧq̇ = Σ` of the transported `κ`) and the gyroscopic term `ω̄ × Jω̄` at an estimate of
+//!    the synchronous velocity `ū = (u(τ − h/2) + u(τ + h/2))/2` (first the extrapolation
+//!    `(3u(τ − h/2) − u(τ − 3h/2))/2`), which enter the tree right-hand side
+//!    `Aᵀ(F − ω̄ × Jω̄ − M Ȧq̇)`, fused with the factorization of `AᵀMA` at τ and the
+//!    backward half of the solve (`Ȧq̇` articulated-body style: a child hands its parent
+//!    `z − Pκ`, [`reduced::Solver::backward_bias`], so no root → leaf pass forms `Ȧq̇`);
 //! 2. the kick: the accelerations of the tree solve (and the cut-row response), applied to
 //!    translation explicitly and to rotation by the midpoint rule per body
 //!    (`midpoint_kick`, a 3×3 Newton iteration, no iteration when the estimate is
@@ -81,7 +84,12 @@
 //!
 //! Joint blocks, forces and coordinate updates are per body; the recursions run sibling
 //! branches in parallel ([`tree::Schedule`]), with rayon, when a level holds at least
-//! [`tree::PAR_MIN`] bodies.
+//! [`tree::PAR_MIN`] bodies, and so do the per-body passes (the copy of the result with
+//! the gyroscopic update, the extrapolation of `ū`) in chunks. A step without cut rows and
+//! with one gyroscopic iteration makes four tree sweeps (leaf → root: forces, `κ`,
+//! factorization and backward solve; root → leaf: forward solve, kick, drift and
+//! geometric correction; leaf → root and root → leaf: the M-orthogonal correction) and
+//! two per-body passes, over one [`reduced::Node`] per body.
 
 pub mod kin;
 pub mod reduced;
@@ -93,6 +101,7 @@ use super::common::{self, gyro, Index1};
 use super::{Integrator, StartError, State, StepError, StepInfo};
 use crate::math::cayley_update;
 use crate::system::{ConstraintEval, Layout, Need, Pose, RowJac, RowKind, System, Twist, Wrench};
+use kin::TreeJointKin;
 use reduced::{free_kin, pcg, Node, PcgOps, Solver};
 use tree::{Tree, NONE};
 
@@ -115,8 +124,11 @@ pub struct Natural {
     h: f64,
     tree: Tree,
     nodes: Vec<Node>,
-    /// Which `Node::kin` holds the blocks at the current positions.
-    cur: usize,
+    /// The body-level response to the cut forces, `−A(AᵀMA)⁻¹AᵀB_cᵀλ_c` per position
+    /// (empty without cut rows).
+    resp: Vec<Twist>,
+    /// Accumulator of a response increment per position (empty without cut rows).
+    dresp: Vec<Twist>,
     /// Positions at τ, velocities at τ − h/2.
     seq: Seq,
     /// The velocities at τ − 3h/2 (for the synchronous output velocity).
@@ -172,11 +184,11 @@ pub struct Natural {
 }
 
 /// The cut-row operator `S = E + h² G (AᵀMA)⁻¹ Gᵀ` for [`pcg`], with its body-level
-/// response accumulated in `Node::dresp` (`Σ α A(AᵀMA)⁻¹AᵀB_cᵀ p`).
+/// response accumulated in `dresp` (`Σ α A(AᵀMA)⁻¹AᵀB_cᵀ p`, per position).
 struct CutOps<'a, 't> {
     solver: Solver<'t>,
     nodes: &'a mut [Node],
-    k: usize,
+    dresp: &'a mut [Twist],
     layout: &'a Layout,
     rows: &'a [usize],
     jac: &'a [RowJac],
@@ -203,7 +215,6 @@ fn add6(w: &mut Wrench, r: &[f64; 6], l: f64) {
 fn cut_response(
     solver: &Solver<'_>,
     nodes: &mut [Node],
-    k: usize,
     layout: &Layout,
     rows: &[usize],
     jac: &[RowJac],
@@ -227,7 +238,7 @@ fn cut_response(
             add6(&mut nodes[pos[b]].f, &jac[r].b, v[i]);
         }
     }
-    solver.solve(nodes, k, true, false);
+    solver.solve(nodes, true, false);
 }
 
 /// `(B_c u)_i` for per-position twists `u` (`u_of(p)`).
@@ -249,7 +260,6 @@ impl PcgOps for CutOps<'_, '_> {
         cut_response(
             &self.solver,
             self.nodes,
-            self.k,
             self.layout,
             self.rows,
             self.jac,
@@ -275,9 +285,9 @@ impl PcgOps for CutOps<'_, '_> {
     }
 
     fn step(&mut self, alpha: f64) {
-        for n in self.nodes.iter_mut() {
-            n.dresp.v += n.acc.v * alpha;
-            n.dresp.w += n.acc.w * alpha;
+        for (d, n) in self.dresp.iter_mut().zip(self.nodes.iter()) {
+            d.v += n.acc.v * alpha;
+            d.w += n.acc.w * alpha;
         }
     }
 }
@@ -296,7 +306,7 @@ impl Natural {
         let nb = layout.bodies();
         let tree = Tree::new(layout);
         // The system must describe every tree joint.
-        let mut probe = kin::TreeJointKin::default();
+        let mut probe = TreeJointKin::default();
         for l in &tree.links {
             if l.joint != NONE
                 && !sys.tree_joint_kinematics(
@@ -316,7 +326,7 @@ impl Natural {
             .map(|l| {
                 let mut n = Node::new(&layout.mass[l.body]);
                 if l.joint == NONE {
-                    n.kin = [free_kin(); 2];
+                    n.kin = free_kin();
                 }
                 n
             })
@@ -325,7 +335,8 @@ impl Natural {
         let mut s = Natural {
             h,
             nodes: Vec::new(),
-            cur: 0,
+            resp: vec![Twist::default(); if m > 0 { nb } else { 0 }],
+            dresp: vec![Twist::default(); if m > 0 { nb } else { 0 }],
             seq: Seq {
                 pose: start.pose.clone(),
                 vel: start.twist.clone(),
@@ -384,11 +395,11 @@ impl Natural {
         let mut pose0 = start.pose.clone();
         let mut vel0 = start.twist.clone();
         s.project_positions(sys, &mut pose0);
-        s.kinematics(sys, 0, &pose0);
-        s.project_velocities(0, &mut vel0);
+        s.kinematics(sys, &pose0);
+        s.project_velocities(&pose0, &mut vel0);
 
         // Accelerations at t0 with the consistent cut multipliers.
-        s.free_accelerations(sys, 0, t0, &pose0, &vel0, &vel0)?;
+        s.free_accelerations(sys, t0, &pose0, &vel0, &vel0)?;
         let has_cut = s.tree.cut_rows.iter().any(|&r| s.active[r]);
         if !s.tree.cut_rows.is_empty() {
             sys.constraints(t0, &pose0, &vel0, Need::ALL, &mut s.ce);
@@ -436,9 +447,9 @@ impl Natural {
             };
             s.epsilon = epsilon.unwrap_or_else(|| s.e.iter().copied().fold(0.0, f64::max));
             // response to λ⁰
-            s.response(layout, 0, &s.lambda.clone());
-            for n in s.nodes.iter_mut() {
-                n.resp = Twist {
+            s.response(layout, &s.lambda.clone());
+            for (r, n) in s.resp.iter_mut().zip(s.nodes.iter()) {
+                *r = Twist {
                     v: -n.acc.v,
                     w: -n.acc.w,
                 };
@@ -450,10 +461,12 @@ impl Natural {
         // explicit half step's ω). The synchronous estimate of the first step is the
         // velocity at t0.
         for i in 0..nb {
-            let n = &s.nodes[s.tree.pos[i]];
+            let p = s.tree.pos[i];
+            let n = &s.nodes[p];
+            let r = s.resp.get(p).copied().unwrap_or_default();
             let a = Twist {
-                v: n.acc_free.v + n.resp.v,
-                w: n.acc_free.w + n.resp.w,
+                v: n.a0.v + r.v,
+                w: n.a0.w + r.w,
             };
             let j = &layout.mass[i].j;
             s.seq.vel[i] = Twist {
@@ -464,7 +477,6 @@ impl Natural {
         s.vel_prev.copy_from_slice(&vel0);
         s.seq.pose.copy_from_slice(&pose0);
         s.vs.copy_from_slice(&vel0);
-        s.cur = 0;
         Ok(s)
     }
 
@@ -496,11 +508,10 @@ impl Natural {
         rtol: f64,
         seed: u64,
     ) -> reduced::PcgStats {
-        // kin[cur] holds the blocks at the current positions (the next step redoes the
+        // the blocks at the current positions (the next step redoes them and the
         // factorization this overwrites)
-        let k = self.cur;
         let pose = std::mem::take(&mut self.seq.pose);
-        self.kinematics(sys, k, &pose);
+        self.kinematics(sys, &pose);
         self.seq.pose = pose;
         let nc = self.tree.ncoord;
         let mut state = seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1;
@@ -517,7 +528,7 @@ impl Natural {
         let max_iter = (10 * nc).max(100) as u32;
         // the operator overwrites the body forces of the next step: keep them
         let f: Vec<Wrench> = self.nodes.iter().map(|n| n.f).collect();
-        let st = solver.pcg_reduced(&mut self.nodes, k, pc, &b, &mut x, rtol, max_iter);
+        let st = solver.pcg_reduced(&mut self.nodes, pc, &b, &mut x, rtol, max_iter);
         for (n, f) in self.nodes.iter_mut().zip(f) {
             n.f = f;
         }
@@ -529,8 +540,8 @@ impl Natural {
         self.tree.sched.par_min = n.max(2);
     }
 
-    /// Joint blocks `Node::kin[k]` at the poses `pose` (per body, in parallel).
-    fn kinematics<S: System>(&mut self, sys: &S, k: usize, pose: &[Pose]) {
+    /// Joint blocks `Node::kin` at the poses `pose` (per body, in parallel).
+    fn kinematics<S: System>(&mut self, sys: &S, pose: &[Pose]) {
         let tree = &self.tree;
         let ground = Pose::default();
         tree.sched.nodes(&mut self.nodes, &|p, n: &mut Node| {
@@ -543,7 +554,7 @@ impl Natural {
             } else {
                 &pose[tree.links[l.parent].body]
             };
-            sys.tree_joint_kinematics(l.joint, l.child_is_b, parent, &pose[l.body], &mut n.kin[k]);
+            sys.tree_joint_kinematics(l.joint, l.child_is_b, parent, &pose[l.body], &mut n.kin);
         });
     }
 
@@ -578,115 +589,96 @@ impl Natural {
         }
     }
 
-    /// Project `vel` onto the null space of the tree at the blocks `kin[k]`: rates of the
-    /// relative motion, then `u = A q̇` root → leaf.
-    fn project_velocities(&mut self, k: usize, vel: &mut [Twist]) {
+    /// Project `vel` onto the null space of the tree at the blocks `Node::kin` (built at
+    /// `pose`): rates of the relative motion, then `u = A q̇` root → leaf.
+    fn project_velocities(&mut self, pose: &[Pose], vel: &mut [Twist]) {
         let tree = &self.tree;
         {
             let src: &[Twist] = vel;
-            tree.sched.nodes(&mut self.nodes, &|p, n: &mut Node| {
-                let l = &tree.links[p];
-                let up = if l.parent == NONE {
-                    Twist::default()
-                } else {
-                    src[tree.links[l.parent].body]
-                };
-                let uc = src[l.body];
-                n.rates = if l.joint == NONE {
-                    [uc.v.x, uc.v.y, uc.v.z, uc.w.x, uc.w.y, uc.w.z]
-                } else {
-                    n.kin[k].rates(&up, &uc)
-                };
-            });
+            let ident = nalgebra::Matrix3::identity();
+            tree.sched
+                .levels(&mut self.nodes, false, &|start, br: &mut [Node], view| {
+                    for i in 0..br.len() {
+                        let l = &tree.links[start + i];
+                        let uc = src[l.body];
+                        let up = if i > 0 {
+                            br[i - 1].tw
+                        } else if l.parent == NONE {
+                            Twist::default()
+                        } else {
+                            view.get(l.parent).tw
+                        };
+                        let rates = if l.joint == NONE {
+                            [uc.v.x, uc.v.y, uc.v.z, uc.w.x, uc.w.y, uc.w.z]
+                        } else {
+                            // the rates of the unprojected relative motion
+                            let (up_raw, cp) = if l.parent == NONE {
+                                (Twist::default(), &ident)
+                            } else {
+                                let pb = tree.links[l.parent].body;
+                                (src[pb], &pose[pb].c)
+                            };
+                            br[i].kin.rates(cp, &pose[l.body].c, &up_raw, &uc)
+                        };
+                        let n = &mut br[i];
+                        n.tw = n.kin.forward(&up, &rates);
+                    }
+                });
         }
-        tree.sched
-            .levels(&mut self.nodes, false, &|start, br: &mut [Node], view| {
-                for i in 0..br.len() {
-                    let l = &tree.links[start + i];
-                    let up = if i > 0 {
-                        br[i - 1].tw
-                    } else if l.parent == NONE {
-                        Twist::default()
-                    } else {
-                        view.get(l.parent).tw
-                    };
-                    let n = &mut br[i];
-                    n.tw = n.kin[k].forward(&up, &n.rates);
-                }
-            });
         for (p, l) in tree.links.iter().enumerate() {
             vel[l.body] = self.nodes[p].tw;
         }
     }
 
-    /// Pass A (root → leaf): the velocity-product accelerations `Node::a0 = Ȧq̇` with the
-    /// synchronous velocities `vs`, and the body forces
-    /// `Node::f = F − ω × Jω − M a0` (`F` in `self.applied`, gyroscopic term at `vs`);
-    /// with `kin_pose`, the joint blocks `kin[k]` at those poses first, in the same sweep.
-    fn forces_a0<S: System>(&mut self, sys: &S, k: usize, kin_pose: Option<&[Pose]>) {
+    /// Pass B (leaf → root): at each position the body force
+    /// `Node::f = F − ω × Jω` (`F` in `self.applied`, gyroscopic term at the synchronous
+    /// velocities `vs`) and the velocity-product term `κ` of its joint at `vs` (in
+    /// `Node::a0`), at the poses `pose`, with (`with_kin`) the joint blocks `Node::kin` at
+    /// those poses first; then (`factor`) the factorization of `AᵀMA` and the backward half
+    /// of the free solve, all in one sweep ([`Solver::backward_bias`]).
+    fn forces_backward<S: System>(
+        &mut self,
+        sys: &S,
+        pose: &[Pose],
+        with_kin: bool,
+        factor: bool,
+    ) -> Result<(), StepError> {
         let tree = &self.tree;
         let applied = &self.applied;
         let vs = &self.vs;
         let layout = sys.layout();
-        tree.sched
-            .levels(&mut self.nodes, false, &|start, br: &mut [Node], view| {
-                let ground = Pose::default();
-                for i in 0..br.len() {
-                    let l = &tree.links[start + i];
-                    let a0 = if l.joint == NONE {
-                        Twist::default()
-                    } else {
-                        if let Some(pose) = kin_pose {
-                            let parent = if l.parent == NONE {
-                                &ground
-                            } else {
-                                &pose[tree.links[l.parent].body]
-                            };
-                            sys.tree_joint_kinematics(
-                                l.joint,
-                                l.child_is_b,
-                                parent,
-                                &pose[l.body],
-                                &mut br[i].kin[k],
-                            );
-                        }
-                        let (up, a0p) = if l.parent == NONE {
-                            (Twist::default(), Twist::default())
-                        } else {
-                            let a0p = if i > 0 {
-                                br[i - 1].a0
-                            } else {
-                                view.get(l.parent).a0
-                            };
-                            (vs[tree.links[l.parent].body], a0p)
-                        };
-                        let kin = &br[i].kin[k];
-                        let uc = vs[l.body];
-                        let rates = kin.rates(&up, &uc);
-                        let kap = kin.kappa(&up, &uc, &rates);
-                        let tr = kin.transport(&a0p);
-                        Twist {
-                            v: tr.v + kap.v,
-                            w: tr.w + kap.w,
-                        }
-                    };
-                    let n = &mut br[i];
-                    n.a0 = a0;
-                    let ma0 = n.mass_mul(&a0);
-                    let b = l.body;
-                    n.f = Wrench {
-                        f: applied[b].f - ma0.f,
-                        t: applied[b].t - gyro(&layout.mass[b], &vs[b].w) - ma0.t,
-                    };
+        let ground = Pose::default();
+        let pre = |node: &mut Node, p: usize| {
+            let l = &tree.links[p];
+            let b = l.body;
+            node.a0 = if l.joint == NONE {
+                Twist::default()
+            } else {
+                let parent = if l.parent == NONE {
+                    &ground
+                } else {
+                    &pose[tree.links[l.parent].body]
+                };
+                let child = &pose[b];
+                if with_kin {
+                    sys.tree_joint_kinematics(l.joint, l.child_is_b, parent, child, &mut node.kin);
                 }
-            });
-    }
-
-    /// Pass B (leaf → root): the factorization at `kin[k]` fused with the backward half of
-    /// the free solve (body forces `Node::f` from pass A).
-    fn factor_free(&mut self, k: usize) -> Result<(), StepError> {
-        let solver = Solver { tree: &self.tree };
-        if let Some(p) = solver.factor_backward(&mut self.nodes, k, true, false) {
+                let up = if l.parent == NONE {
+                    Twist::default()
+                } else {
+                    vs[tree.links[l.parent].body]
+                };
+                let uc = vs[b];
+                let rates = node.kin.rates(&parent.c, &child.c, &up, &uc);
+                node.kin.kappa(&parent.c, &child.c, &up, &uc, &rates)
+            };
+            node.f = Wrench {
+                f: applied[b].f,
+                t: applied[b].t - gyro(&layout.mass[b], &vs[b].w),
+            };
+        };
+        let solver = Solver { tree };
+        if let Some(p) = solver.backward_bias(&mut self.nodes, factor, &pre) {
             return Err(StepError::Singular {
                 what: "reduced mass AᵀMA (natural partitioning)",
                 row: self.tree.links[p].off,
@@ -695,13 +687,41 @@ impl Natural {
         Ok(())
     }
 
-    /// The accelerations without cut forces into `Node::acc_free` (forces at `(pose, vl)`:
+    /// The forward half of the free solve (root → leaf, `y = X u̇_p + κ`): `Node::a0 ←`
+    /// the accelerations without cut forces `Ȧq̇ + A x` (also in `Node::acc`).
+    fn free_forward(&mut self) {
+        let tree = &self.tree;
+        tree.sched
+            .levels(&mut self.nodes, false, &|start, br: &mut [Node], view| {
+                for i in 0..br.len() {
+                    let l = &tree.links[start + i];
+                    let pacc = if i > 0 {
+                        Some(br[i - 1].acc)
+                    } else if l.parent == NONE {
+                        None
+                    } else {
+                        Some(view.get(l.parent).acc)
+                    };
+                    let node = &mut br[i];
+                    let mut y = node.a0;
+                    if let Some(pa) = pacc {
+                        let t = node.kin.transport(&pa);
+                        y.v += t.v;
+                        y.w += t.w;
+                    }
+                    reduced::fwd(node, &y);
+                    node.a0 = node.acc;
+                }
+            });
+    }
+
+    /// The accelerations without cut forces into `Node::a0` (forces at `(pose, vl)`:
     /// `vl` the lagged velocities damping uses; gyroscopic term and `Ȧq̇` at the synchronous
-    /// `vs`): passes A and B and the forward half of the solve.
+    /// `vs`; joint blocks at `pose` already in `Node::kin`): passes A and B and the forward
+    /// half of the solve.
     fn free_accelerations<S: System>(
         &mut self,
         sys: &S,
-        k: usize,
         t: f64,
         pose: &[Pose],
         vl: &[Twist],
@@ -709,27 +729,18 @@ impl Natural {
     ) -> Result<(), StepError> {
         sys.applied(t, pose, vl, &mut self.applied);
         self.vs.copy_from_slice(vs);
-        self.forces_a0(sys, k, None);
-        self.factor_free(k)?;
-        let solver = Solver { tree: &self.tree };
-        solver.forward_solve(&mut self.nodes, k);
-        self.tree.sched.nodes(&mut self.nodes, &|_, n: &mut Node| {
-            n.acc_free = Twist {
-                v: n.a0.v + n.acc.v,
-                w: n.a0.w + n.acc.w,
-            };
-        });
+        self.forces_backward(sys, pose, false, true)?;
+        self.free_forward();
         Ok(())
     }
 
-    /// `Node::acc = A(AᵀMA)⁻¹AᵀB_cᵀ v` at `kin[k]` (one tree solve), with `self.ce`'s
+    /// `Node::acc = A(AᵀMA)⁻¹AᵀB_cᵀ v` at `Node::kin` (one tree solve), with `self.ce`'s
     /// Jacobian.
-    fn response(&mut self, layout: &Layout, k: usize, v: &[f64]) {
+    fn response(&mut self, layout: &Layout, v: &[f64]) {
         let solver = Solver { tree: &self.tree };
         cut_response(
             &solver,
             &mut self.nodes,
-            k,
             layout,
             &self.tree.cut_rows,
             &self.ce.jac,
@@ -743,20 +754,23 @@ impl Natural {
     /// correction of SHAKE (see the module doc), in three sweeps:
     ///
     /// - C (root → leaf): optionally the forward half of the free solve (`solve`:
-    ///   `acc_free = a0 + A x`); the kick with `a = acc_free + resp` (velocities to
-    ///   τ + h/2: translation explicit, rotation by the midpoint rule, [`midpoint_kick`]),
-    ///   the drift (positions to τ + h, Cayley update); the geometric correction `δq_geo`
-    ///   that puts each child back on its joint (the parent already corrected);
+    ///   `a0 ← Ȧq̇ + A x`, from `y = X u̇_p + κ`); the kick with `a = a0 + resp` (velocities to τ + h/2:
+    ///   translation explicit, rotation by the midpoint rule, [`midpoint_kick`]), the drift
+    ///   (positions to τ + h, Cayley update); the geometric correction `δq_geo` that puts
+    ///   each child back on its joint (the parent already corrected), and `M δq_geo`;
     /// - D (leaf → root): the backward half of `(AᵀMA)⁻¹AᵀM δq_geo` (factorization at τ);
     /// - E (root → leaf): its forward half, the M-orthogonal correction
     ///   `δq = δq_geo − A(AᵀMA)⁻¹AᵀM δq_geo` (along `M⁻¹Bᵀ(τ)`, the direction of the
     ///   constraint forces), applied to the position and, divided by h, to the velocity;
     ///   a last geometric projection (the remaining `O(h⁴)` violation, to round-off).
-    fn advance_pass<S: System>(&mut self, sys: &S, k: usize, solve: bool) {
+    ///
+    /// The result stays in the nodes (`Node::pose`, `Node::tw`); [`Natural::gather`]
+    /// copies it to `self.trial`.
+    fn advance_pass<S: System>(&mut self, sys: &S, solve: bool) {
         let h = self.h;
         let tree = &self.tree;
         let src = &self.seq;
-        let (vs, gc) = (&self.vs, &self.gc);
+        let (vs, gc, resp) = (&self.vs, &self.gc, &self.resp);
         // The drift of body b with the kicked velocity v.
         let drift = |b: usize, v: &Twist| {
             let q = cayley_update(&src.pose[b].q, &v.w, h, false);
@@ -784,21 +798,21 @@ impl Natural {
                     };
                     let node = &mut br[i];
                     if solve {
-                        let yv = if l.parent == NONE {
-                            Twist::default()
-                        } else {
-                            node.kin[k].transport(&pacc)
-                        };
-                        reduced::fwd(node, k, &yv);
-                        node.acc_free = Twist {
-                            v: node.a0.v + node.acc.v,
-                            w: node.a0.w + node.acc.w,
-                        };
+                        // y = X u̇_p + κ (the parent's acc is its total acceleration)
+                        let mut y = node.a0;
+                        if l.parent != NONE {
+                            let t = node.kin.transport(&pacc);
+                            y.v += t.v;
+                            y.w += t.w;
+                        }
+                        reduced::fwd(node, &y);
+                        node.a0 = node.acc;
                     }
-                    let a = Twist {
-                        v: node.acc_free.v + node.resp.v,
-                        w: node.acc_free.w + node.resp.w,
-                    };
+                    let mut a = node.a0;
+                    if let Some(r) = resp.get(start + i) {
+                        a.v += r.v;
+                        a.w += r.w;
+                    }
                     let b = l.body;
                     let u = &src.vel[b];
                     let v = Twist {
@@ -813,13 +827,13 @@ impl Natural {
                     }
                     // δq_geo as a twist-like displacement (world translation, body rotation)
                     node.dq = displacement(&raw, &node.pose);
+                    // the body force of sweep D
+                    node.f = node.mass_mul(&node.dq);
                 }
             });
         // Sweep D: backward half of (AᵀMA)⁻¹AᵀM δq_geo with the factorization at τ.
         let solver = Solver { tree };
-        tree.sched
-            .nodes(&mut self.nodes, &|_, n: &mut Node| n.f = n.mass_mul(&n.dq));
-        solver.backward_solve(&mut self.nodes, k, true, false);
+        solver.backward_solve(&mut self.nodes, true, false);
         // Sweep E.
         tree.sched
             .levels(&mut self.nodes, false, &|start, br: &mut [Node], view| {
@@ -841,9 +855,9 @@ impl Natural {
                     let yv = if l.parent == NONE {
                         Twist::default()
                     } else {
-                        node.kin[k].transport(&pacc)
+                        node.kin.transport(&pacc)
                     };
-                    reduced::fwd(node, k, &yv);
+                    reduced::fwd(node, &yv);
                     let d = Twist {
                         v: node.dq.v - node.acc.v,
                         w: node.dq.w - node.acc.w,
@@ -859,74 +873,90 @@ impl Natural {
                     }
                 }
             });
-        let (nodes, pos) = (&self.nodes, &tree.pos);
-        let trial = &mut self.trial;
-        let put = |b: usize, p: &mut Pose, v: &mut Twist| {
-            let n = &nodes[pos[b]];
-            *p = n.pose;
-            *v = n.tw;
-        };
-        if trial.pose.len() >= tree.sched.par_min {
-            use rayon::prelude::*;
-            trial
-                .pose
-                .par_iter_mut()
-                .zip(trial.vel.par_iter_mut())
-                .enumerate()
-                .for_each(|(b, (p, v))| put(b, p, v));
-        } else {
-            for (b, (p, v)) in trial.pose.iter_mut().zip(trial.vel.iter_mut()).enumerate() {
-                put(b, p, v);
-            }
-        }
     }
 
-    /// After an iterate of the step (the advanced sequence in `self.trial`): the new
-    /// estimates `ū = (u + u⁺)/2` (into `self.vs`) and tree corrections of ω (into
-    /// `self.gc`), and how much the gyroscopic impulse `h ω̄ × Jω̄` of the kick changes with
-    /// them (per unit inertia, the largest over the bodies), relative to `1 + max |ω̄|`.
-    fn gyro_update(&mut self, layout: &Layout) -> f64 {
+    /// Copy the result of [`Natural::advance_pass`] into `self.trial` (body order) and,
+    /// with `layout`, update the gyroscopic estimates in the same per-body pass: the new
+    /// `ū = (u + u⁺)/2` (into `self.vs`) and tree corrections of ω (into `self.gc`).
+    /// Returns how much the gyroscopic impulse `h ω̄ × Jω̄` of the kick changes with them
+    /// (per unit inertia, the largest over the bodies), relative to `1 + max |ω̄|` (0
+    /// without `layout`). Runs in parallel chunks for large scenes.
+    fn gather(&mut self, layout: Option<&Layout>) -> f64 {
         let h = self.h;
-        let mut err: f64 = 0.0;
-        let mut wmax: f64 = 0.0;
-        for (p, l) in self.tree.links.iter().enumerate() {
-            let b = l.body;
-            let n = &self.nodes[p];
-            let u0 = &self.seq.vel[b];
-            let u1 = &self.trial.vel[b];
+        let tree = &self.tree;
+        let nodes = &self.nodes;
+        let seq_vel = &self.seq.vel;
+        // (err, max |ω̄|) of body b
+        let one = |b: usize, p: &mut Pose, v: &mut Twist, vs: &mut Twist, gc: &mut Vector3<f64>| {
+            let pos = tree.pos[b];
+            let n = &nodes[pos];
+            *p = n.pose;
+            *v = n.tw;
+            let Some(layout) = layout else {
+                return (0.0, 0.0);
+            };
+            let u0 = &seq_vel[b];
             let ub = Twist {
-                v: (u0.v + u1.v) * 0.5,
-                w: (u0.w + u1.w) * 0.5,
+                v: (u0.v + v.v) * 0.5,
+                w: (u0.w + v.w) * 0.5,
             };
             let c = n.tw.w - n.raw.w;
             let m = &layout.mass[b];
-            let exact = l.joint == NONE && self.tree.children(p).is_empty();
             let g_new = gyro(m, &ub.w);
-            let dg = (g_new - gyro(m, &self.vs[b].w)).norm()
-                + (g_new - gyro(m, &(ub.w - (c - self.gc[b]) * 0.5))).norm();
-            if !exact {
-                // (the kick of a body without joints is exact whatever the estimate)
-                err = err.max(h * dg / (m.j.trace() / 3.0));
-            }
-            wmax = wmax.max(ub.w.norm());
-            self.vs[b] = ub;
-            self.gc[b] = c;
-        }
+            let l = &tree.links[pos];
+            // (the kick of a body without joints is exact whatever the estimate)
+            let exact = l.joint == NONE && tree.children(pos).is_empty();
+            let err = if exact {
+                0.0
+            } else {
+                let dg = (g_new - gyro(m, &vs.w)).norm()
+                    + (g_new - gyro(m, &(ub.w - (c - *gc) * 0.5))).norm();
+                h * dg / (m.j.trace() / 3.0)
+            };
+            let wn = ub.w.norm();
+            *vs = ub;
+            *gc = c;
+            (err, wn)
+        };
+        let max2 = |a: (f64, f64), b: (f64, f64)| (a.0.max(b.0), a.1.max(b.1));
+        let trial = &mut self.trial;
+        let (err, wmax) = if trial.pose.len() >= tree.sched.par_min {
+            use rayon::prelude::*;
+            (
+                trial.pose.par_iter_mut(),
+                trial.vel.par_iter_mut(),
+                self.vs.par_iter_mut(),
+                self.gc.par_iter_mut(),
+            )
+                .into_par_iter()
+                .enumerate()
+                .with_min_len(256)
+                .map(|(b, (p, v, vs, gc))| one(b, p, v, vs, gc))
+                .reduce(|| (0.0, 0.0), max2)
+        } else {
+            trial
+                .pose
+                .iter_mut()
+                .zip(trial.vel.iter_mut())
+                .zip(self.vs.iter_mut().zip(self.gc.iter_mut()))
+                .enumerate()
+                .map(|(b, ((p, v), (vs, gc)))| one(b, p, v, vs, gc))
+                .fold((0.0, 0.0), max2)
+        };
         err / (1.0 + wmax)
     }
 
     /// One step of the sequence at τ. Returns the PCG iterations made.
     fn advance<S: System>(&mut self, sys: &S) -> Result<u32, StepError> {
-        let k = self.cur;
         let has_cut = self.tree.cut_rows.iter().any(|&r| self.active[r]);
-        // Pass A (joint blocks at τ, Ȧq̇ and the gyroscopic term at the synchronous
-        // estimate, applied forces with the lagged velocities) and pass B (factorization
-        // fused with the backward half of the free solve).
+        // Pass B: joint blocks at τ, the velocity-product terms and the gyroscopic term at
+        // the synchronous estimate (applied forces with the lagged velocities), the
+        // factorization and the backward half of the free solve, in one sweep.
         sys.applied(self.tau, &self.seq.pose, &self.seq.vel, &mut self.applied);
         let pose = std::mem::take(&mut self.seq.pose);
-        self.forces_a0(sys, k, Some(&pose));
+        let r = self.forces_backward(sys, &pose, true, true);
         self.seq.pose = pose;
-        self.factor_free(k)?;
+        r?;
         if has_cut {
             sys.constraints(self.tau, &self.seq.pose, &self.vs, Need::JAC, &mut self.ce);
             // warm start λ(τ) ≈ 2λ(τ − h) − λ(τ − 2h)
@@ -936,9 +966,7 @@ impl Natural {
                 self.lambda[i] = if self.active[r] { 2.0 * l1 - l0 } else { 0.0 };
             }
         } else {
-            self.tree.sched.nodes(&mut self.nodes, &|_, n: &mut Node| {
-                n.resp = Twist::default()
-            });
+            self.resp.iter_mut().for_each(|r| *r = Twist::default());
         }
         let mut pcg_iters = 0;
         let mut gyro_it = 0;
@@ -946,17 +974,19 @@ impl Natural {
         while gyro_it < MAX_GYRO {
             if gyro_it > 0 {
                 // the forces at the new estimate ū, with the factorization at τ
-                self.forces_a0(sys, k, None);
-                Solver { tree: &self.tree }.backward_solve(&mut self.nodes, k, true, false);
+                let pose = std::mem::take(&mut self.seq.pose);
+                let r = self.forces_backward(sys, &pose, false, false);
+                self.seq.pose = pose;
+                r?;
             }
             gyro_it += 1;
             if !has_cut {
                 // Pass C: forward solve and coordinate update fused, then the correction.
-                self.advance_pass(sys, k, true);
+                self.advance_pass(sys, true);
             } else {
-                pcg_iters += self.cut_step(sys, k)?;
+                pcg_iters += self.cut_step(sys)?;
             }
-            let err = self.gyro_update(sys.layout());
+            let err = self.gather(Some(sys.layout()));
             if err <= GYRO_TOL {
                 converged = true;
                 break;
@@ -970,12 +1000,23 @@ impl Natural {
         }
         std::mem::swap(&mut self.seq, &mut self.trial);
         // the estimate of ū for the next step: u(τ + h) ≈ (3u(τ + h/2) − u(τ − h/2))/2
-        for (b, v) in self.vs.iter_mut().enumerate() {
-            let (v1, v0) = (&self.seq.vel[b], &self.trial.vel[b]);
+        let (v1, v0) = (&self.seq.vel, &self.trial.vel);
+        let extrapolate = |(b, v): (usize, &mut Twist)| {
+            let (v1, v0) = (&v1[b], &v0[b]);
             *v = Twist {
                 v: v1.v * 1.5 - v0.v * 0.5,
                 w: v1.w * 1.5 - v0.w * 0.5,
             };
+        };
+        if self.vs.len() >= self.tree.sched.par_min {
+            use rayon::prelude::*;
+            self.vs
+                .par_iter_mut()
+                .enumerate()
+                .with_min_len(512)
+                .for_each(extrapolate);
+        } else {
+            self.vs.iter_mut().enumerate().for_each(extrapolate);
         }
         Ok(pcg_iters)
     }
@@ -983,15 +1024,8 @@ impl Natural {
     /// The coordinate update with the cut-row multipliers (forces of pass A solved by the
     /// backward half already): the forward half, then the staggered stabilization with
     /// the regularization raised where it does not converge. Returns the PCG iterations.
-    fn cut_step<S: System>(&mut self, sys: &S, k: usize) -> Result<u32, StepError> {
-        let solver = Solver { tree: &self.tree };
-        solver.forward_solve(&mut self.nodes, k);
-        self.tree.sched.nodes(&mut self.nodes, &|_, n: &mut Node| {
-            n.acc_free = Twist {
-                v: n.a0.v + n.acc.v,
-                w: n.a0.w + n.acc.w,
-            };
-        });
+    fn cut_step<S: System>(&mut self, sys: &S) -> Result<u32, StepError> {
+        self.free_forward();
         // Near a singular configuration (links that line up, lock-up) the default
         // regularization can be too small for the iteration to converge: retry with it
         // raised ×10³ at a time, as the staggered method does (each such step counted).
@@ -1005,7 +1039,7 @@ impl Natural {
             for (ee, e) in self.e_eff.iter_mut().zip(&self.e) {
                 *ee = e * scale;
             }
-            match self.lint(sys, k) {
+            match self.lint(sys) {
                 Ok(r) => {
                     if attempt > 0 {
                         self.regularized_steps += 1;
@@ -1032,15 +1066,15 @@ impl Natural {
     /// update satisfy `Φ_c = E(λ_c − λ_c⁰)`, each correction from PCG on
     /// `S = E + h² (B_c A)(AᵀMA)⁻¹(B_c A)ᵀ`. Leaves the advanced sequence in `self.trial`.
     /// Returns (Newton iterations, PCG iterations).
-    fn lint<S: System>(&mut self, sys: &S, k: usize) -> Result<(u32, u32), StepError> {
+    fn lint<S: System>(&mut self, sys: &S) -> Result<(u32, u32), StepError> {
         let layout = sys.layout();
         let h = self.h;
         let mut pcg_iters = 0;
         let lam = std::mem::take(&mut self.lambda);
-        self.response(layout, k, &lam);
+        self.response(layout, &lam);
         self.lambda = lam;
-        for n in self.nodes.iter_mut() {
-            n.resp = Twist {
+        for (r, n) in self.resp.iter_mut().zip(self.nodes.iter()) {
+            *r = Twist {
                 v: -n.acc.v,
                 w: -n.acc.w,
             };
@@ -1057,7 +1091,8 @@ impl Natural {
         let mut newton = 0;
         for it in 0..MAX_NEWTON {
             newton = it;
-            self.advance_pass(sys, k, false);
+            self.advance_pass(sys, false);
+            self.gather(None);
             sys.constraints(
                 self.tau + h,
                 &self.trial.pose,
@@ -1087,14 +1122,12 @@ impl Natural {
                 break;
             }
             // Newton correction: S Δλ = res by PCG, accumulating the body response.
-            self.nodes
-                .iter_mut()
-                .for_each(|n| n.dresp = Twist::default());
+            self.dresp.iter_mut().for_each(|d| *d = Twist::default());
             let stats = {
                 let mut ops = CutOps {
                     solver: Solver { tree: &self.tree },
                     nodes: &mut self.nodes,
-                    k,
+                    dresp: &mut self.dresp,
                     layout,
                     rows: &self.tree.cut_rows,
                     jac: &self.ce.jac,
@@ -1133,9 +1166,9 @@ impl Natural {
             for i in 0..self.dl.len() {
                 self.lambda[i] += self.dl[i];
             }
-            for n in self.nodes.iter_mut() {
-                n.resp.v -= n.dresp.v;
-                n.resp.w -= n.dresp.w;
+            for (r, d) in self.resp.iter_mut().zip(&self.dresp) {
+                r.v -= d.v;
+                r.w -= d.w;
             }
         }
         if !converged {
@@ -1490,7 +1523,7 @@ mod tests {
         let sys = Interp::new(&scene).unwrap();
         let mut s = natural(&sys);
         let (pose, vel) = random_state(&mut rng, n);
-        s.kinematics(&sys, 0, &pose);
+        s.kinematics(&sys, &pose);
         let layout = sys.layout();
         let mut ce = ConstraintEval::new(layout.rows);
         sys.constraints(0.0, &pose, &vel, Need::JAC, &mut ce);
@@ -1499,8 +1532,8 @@ mod tests {
         for c in 0..s.tree.ncoord {
             let mut e = vec![0.0; s.tree.ncoord];
             e[c] = 1.0;
-            solver.scatter(&mut s.nodes, &e, false);
-            solver.forward(&mut s.nodes, 0);
+            solver.scatter(&mut s.nodes, &e);
+            solver.forward(&mut s.nodes);
             let acc: Vec<Twist> = (0..n).map(|b| s.nodes[s.tree.pos[b]].acc).collect();
             for r in 0..layout.rows {
                 if s.tree.cut_rows.contains(&r) {
@@ -1541,15 +1574,14 @@ mod tests {
             let layout = sys.layout();
             let mut s = natural(&sys);
             let (pose, _) = random_state(&mut rng, n);
-            s.kinematics(&sys, 0, &pose);
+            s.kinematics(&sys, &pose);
             // u = A q̇ for random q̇
             let solver = Solver { tree: &s.tree };
             let qd: Vec<f64> = (0..s.tree.ncoord).map(|_| rng.normal()).collect();
-            solver.scatter(&mut s.nodes, &qd, false);
-            solver.forward(&mut s.nodes, 0);
+            solver.scatter(&mut s.nodes, &qd);
+            solver.forward(&mut s.nodes);
             let vel: Vec<Twist> = (0..n).map(|b| s.nodes[s.tree.pos[b]].acc).collect();
-            s.free_accelerations(&sys, 0, 0.0, &pose, &vel, &vel)
-                .unwrap();
+            s.free_accelerations(&sys, 0.0, &pose, &vel, &vel).unwrap();
             // reference
             let mut ce = ConstraintEval::new(layout.rows);
             sys.constraints(0.0, &pose, &vel, Need::ALL, &mut ce);
@@ -1576,7 +1608,7 @@ mod tests {
                         t: q[b].t - fl[b].t,
                     },
                 );
-                let got = s.nodes[s.tree.pos[b]].acc_free;
+                let got = s.nodes[s.tree.pos[b]].a0;
                 scale = scale.max(want.v.norm()).max(want.w.norm());
                 err = err
                     .max((got.v - want.v).norm())
@@ -1602,15 +1634,15 @@ mod tests {
         let sys = Interp::new(&scene).unwrap();
         let mut s = natural(&sys);
         let (pose, _) = random_state(&mut rng, 12);
-        s.kinematics(&sys, 0, &pose);
+        s.kinematics(&sys, &pose);
         let nc = s.tree.ncoord;
         let b: Vec<f64> = (0..nc).map(|_| rng.normal()).collect();
         let solver = Solver { tree: &s.tree };
         let mut x = vec![0.0; nc];
-        let st = solver.pcg_reduced(&mut s.nodes, 0, Precond::TreeExact, &b, &mut x, 1e-12, 50);
+        let st = solver.pcg_reduced(&mut s.nodes, Precond::TreeExact, &b, &mut x, 1e-12, 50);
         assert!(st.converged && st.iterations == 1, "{st:?}");
         let mut x2 = vec![0.0; nc];
-        let st2 = solver.pcg_reduced(&mut s.nodes, 0, Precond::Identity, &b, &mut x2, 1e-12, 500);
+        let st2 = solver.pcg_reduced(&mut s.nodes, Precond::Identity, &b, &mut x2, 1e-12, 500);
         eprintln!("tree-exact {st:?}, identity {st2:?}");
         assert!(st2.iterations > 1, "{st2:?}");
         for i in 0..nc {

@@ -45,49 +45,50 @@ use super::tree::{Tree, View, NONE};
 use crate::system::{MassProps, Twist, Wrench};
 
 /// Everything the recursions keep per tree position.
+///
+/// Only what the sweeps of a step read or write, packed: one set of joint blocks, the
+/// factorization in [`Node::wl`] (`W` and `L` sized for at most 3 rates; a free root's
+/// `W` equals its `L`), and fields that share storage where their lifetimes do not
+/// overlap ([`Node::f`] holds the input force, then the subtree bias; [`Node::x`] the
+/// input generalized force, then the solution; [`Node::a0`] the joint's velocity-product
+/// term `κ`, then the free acceleration): 1544 bytes (3312 with the two sets of joint blocks of the old
+/// two-sequence integrator).
 #[derive(Clone, Debug)]
 pub struct Node {
     /// Mass.
     pub m: f64,
     /// Inertia (body).
     pub j: Matrix3<f64>,
-    /// Joint blocks at two configurations (the integrator alternates them).
-    pub kin: [TreeJointKin; 2],
+    /// Joint blocks at the current positions.
+    pub kin: TreeJointKin,
     /// `P_c` handed to the parent (leaf → root factorization); the composite inertia
     /// for block-Jacobi.
     pub pm: Matrix6<f64>,
-    /// Columns of `W = I S L⁻ᵀ` (first `dof`).
-    pub w: [[f64; 6]; 6],
-    /// Cholesky factor `L` of `D = SᵀIS`, row-major lower triangle (first `dof`).
-    pub l: [[f64; 6]; 6],
-    /// Input body force.
+    /// The factorization of `D = SᵀIS = L Lᵀ` and `W = I S L⁻ᵀ`, packed by the number of
+    /// rates `n`: for `n ≤ 3` the columns of `W` (`6n` entries) then the lower triangle
+    /// of `L` by rows from entry 18; for a free root (`n = 6`, `S = I₆`, so `W = L`) the
+    /// lower triangle of `L` by rows from entry 0.
+    pub wl: [f64; 24],
+    /// Input body force of a backward sweep; after it, the subtree bias `z` handed to
+    /// the parent.
     pub f: Wrench,
-    /// Input generalized force on this joint's rates.
-    pub bq: [f64; 6],
-    /// Subtree bias `z` handed to the parent.
-    pub z: Wrench,
     /// `L⁻¹ g`.
     pub hh: [f64; 6],
-    /// Solution: this joint's `x`.
+    /// Input generalized force on this joint's rates (solves with `with_b`); after a
+    /// forward sweep, the solution: this joint's `x`.
     pub x: [f64; 6],
     /// Solution: the body's `(A x)` (acceleration).
     pub acc: Twist,
-    /// The velocity-product acceleration `Ȧq̇` (root → leaf sum of `κ`).
+    /// The velocity-product term `κ` of the joint (input of [`Solver::backward_bias`]);
+    /// after the forward half of the free solve, the acceleration without cut forces
+    /// `Ȧq̇ + A x`.
     pub a0: Twist,
-    /// Acceleration without cut forces.
-    pub acc_free: Twist,
-    /// Acceleration response to the cut forces.
-    pub resp: Twist,
-    /// Accumulator of a response increment.
-    pub dresp: Twist,
     /// Scratch twist (projected velocity).
     pub tw: Twist,
     /// Scratch twist (unprojected velocity).
     pub raw: Twist,
     /// Scratch displacement (position correction).
     pub dq: Twist,
-    /// Scratch rates.
-    pub rates: [f64; 6],
     /// Scratch pose.
     pub pose: crate::system::Pose,
 }
@@ -98,24 +99,17 @@ impl Node {
         Node {
             m: mp.m,
             j: mp.j,
-            kin: [TreeJointKin::default(); 2],
+            kin: TreeJointKin::default(),
             pm: Matrix6::zeros(),
-            w: [[0.0; 6]; 6],
-            l: [[0.0; 6]; 6],
+            wl: [0.0; 24],
             f: Wrench::default(),
-            bq: [0.0; 6],
-            z: Wrench::default(),
             hh: [0.0; 6],
             x: [0.0; 6],
             acc: Twist::default(),
             a0: Twist::default(),
-            acc_free: Twist::default(),
-            resp: Twist::default(),
-            dresp: Twist::default(),
             tw: Twist::default(),
             raw: Twist::default(),
             dq: Twist::default(),
-            rates: [0.0; 6],
             pose: crate::system::Pose::default(),
         }
     }
@@ -143,15 +137,11 @@ impl Node {
 
 /// The joint blocks of a free root: `S = I₆`, no parent.
 pub fn free_kin() -> TreeJointKin {
-    let mut k = TreeJointKin {
+    TreeJointKin {
         dof: 6,
         xw: Matrix3::zeros(),
         ..TreeJointKin::default()
-    };
-    for (i, col) in k.s.iter_mut().enumerate() {
-        col[i] = 1.0;
     }
-    k
 }
 
 #[inline]
@@ -186,35 +176,72 @@ fn xtpx(k: &TreeJointKin, p: &Matrix6<f64>) -> Matrix6<f64> {
     o
 }
 
-/// `L⁻¹ g` (forward substitution, `N × N` lower `l`).
+/// Start of row `i` of a packed lower triangle.
+#[inline(always)]
+const fn tri(i: usize) -> usize {
+    i * (i + 1) / 2
+}
+
+/// Where `L` starts in [`Node::wl`] for `N` rates.
+#[inline(always)]
+const fn l_start<const N: usize>() -> usize {
+    if N == 6 {
+        0
+    } else {
+        18
+    }
+}
+
+/// `L[i][j]` (`j ≤ i`) of the packed factorization.
+#[inline(always)]
+fn l_at<const N: usize>(wl: &[f64; 24], i: usize, j: usize) -> f64 {
+    wl[l_start::<N>() + tri(i) + j]
+}
+
+/// `W[i][c]` (row `i`, column `c`) of the packed factorization.
+#[inline(always)]
+fn w_at<const N: usize>(wl: &[f64; 24], c: usize, i: usize) -> f64 {
+    if N == 6 {
+        if i >= c {
+            wl[tri(i) + c]
+        } else {
+            0.0
+        }
+    } else {
+        wl[6 * c + i]
+    }
+}
+
+/// `L⁻¹ g` (forward substitution, `N × N` lower `L` of `wl`).
 #[inline]
-fn lsolve<const N: usize>(l: &[[f64; 6]; 6], g: &[f64; 6]) -> [f64; 6] {
+fn lsolve<const N: usize>(wl: &[f64; 24], g: &[f64; 6]) -> [f64; 6] {
     let mut y = [0.0; 6];
     for i in 0..N {
         let mut s = g[i];
         for k in 0..i {
-            s -= l[i][k] * y[k];
+            s -= l_at::<N>(wl, i, k) * y[k];
         }
-        y[i] = s / l[i][i];
+        y[i] = s / l_at::<N>(wl, i, i);
     }
     y
 }
 
 /// `L⁻ᵀ g` (back substitution).
 #[inline]
-fn ltsolve<const N: usize>(l: &[[f64; 6]; 6], g: &[f64; 6]) -> [f64; 6] {
+fn ltsolve<const N: usize>(wl: &[f64; 24], g: &[f64; 6]) -> [f64; 6] {
     let mut x = [0.0; 6];
     for i in (0..N).rev() {
         let mut s = g[i];
         for k in i + 1..N {
-            s -= l[k][i] * x[k];
+            s -= l_at::<N>(wl, k, i) * x[k];
         }
-        x[i] = s / l[i][i];
+        x[i] = s / l_at::<N>(wl, i, i);
     }
     x
 }
 
-/// Dispatch on the number of rates (0..=6) to a const-generic kernel.
+/// Dispatch on the number of rates (0..=3 for a tree joint, 6 for a free root) to a
+/// const-generic kernel.
 macro_rules! by_dof {
     ($n:expr, $f:ident ( $($a:expr),* )) => {
         match $n {
@@ -222,35 +249,42 @@ macro_rules! by_dof {
             1 => $f::<1>($($a),*),
             2 => $f::<2>($($a),*),
             3 => $f::<3>($($a),*),
-            4 => $f::<4>($($a),*),
-            5 => $f::<5>($($a),*),
-            _ => $f::<6>($($a),*),
+            6 => $f::<6>($($a),*),
+            n => unreachable!("{n} rates: a tree joint has at most 3, a free root 6"),
         }
     };
 }
 
-/// Factor one position given its articulated inertia `ia`: `l`, `w` and `pm = P`.
+/// Factor one position given its articulated inertia `ia`: `wl` and `pm = P`.
 /// Returns false when `D = SᵀIS` is not positive definite.
 #[inline]
-fn factor_n<const N: usize>(node: &mut Node, k: usize, ia: &Matrix6<f64>) -> bool {
-    let s = &node.kin[k].s;
-    // U = I S (columns), then D = Sᵀ U factorized in place into l
+fn factor_n<const N: usize>(node: &mut Node, ia: &Matrix6<f64>) -> bool {
+    let s = node.kin.cols();
+    // U = I S (columns; S = I₆ for a free root), then D = Sᵀ U factorized into l
     let mut u = [[0.0; 6]; 6];
     for c in 0..N {
         for i in 0..6 {
-            let mut acc = 0.0;
-            for j in 0..6 {
-                acc += ia[(i, j)] * s[c][j];
-            }
-            u[c][i] = acc;
+            u[c][i] = if N == 6 {
+                ia[(i, c)]
+            } else {
+                let mut acc = 0.0;
+                for j in 0..6 {
+                    acc += ia[(i, j)] * s[c][j];
+                }
+                acc
+            };
         }
     }
-    let l = &mut node.l;
+    let mut l = [[0.0; 6]; 6];
     for i in 0..N {
         for j in 0..=i {
             let mut d = 0.0;
-            for r in 0..6 {
-                d += s[i][r] * u[j][r];
+            if N == 6 {
+                d = u[j][i];
+            } else {
+                for r in 0..6 {
+                    d += s[i][r] * u[j][r];
+                }
             }
             for q in 0..j {
                 d -= l[i][q] * l[j][q];
@@ -266,7 +300,7 @@ fn factor_n<const N: usize>(node: &mut Node, k: usize, ia: &Matrix6<f64>) -> boo
         }
     }
     // W = U L⁻ᵀ
-    let w = &mut node.w;
+    let mut w = [[0.0; 6]; 6];
     for c in 0..N {
         let inv = 1.0 / l[c][c];
         for i in 0..6 {
@@ -288,61 +322,72 @@ fn factor_n<const N: usize>(node: &mut Node, k: usize, ia: &Matrix6<f64>) -> boo
             p[(i, j)] = acc;
         }
     }
+    let wl = &mut node.wl;
+    if N != 6 {
+        for c in 0..N {
+            wl[6 * c..6 * c + 6].copy_from_slice(&w[c]);
+        }
+    }
+    for i in 0..N {
+        for j in 0..=i {
+            wl[l_start::<N>() + tri(i) + j] = l[i][j];
+        }
+    }
     true
 }
 
 #[inline]
-fn factor_node(node: &mut Node, k: usize, ia: &Matrix6<f64>) -> bool {
-    by_dof!(node.kin[k].dof, factor_n(node, k, ia))
+fn factor_node(node: &mut Node, ia: &Matrix6<f64>) -> bool {
+    by_dof!(node.kin.dof, factor_n(node, ia))
 }
 
-/// Backward step of the solve at one position: `g = b + Sᵀβ`, `h = L⁻¹g`,
-/// `z = β − W h`.
+/// Backward step of the solve at one position: `g = b + Sᵀβ` (`b` in [`Node::x`] when
+/// `with_b`), `h = L⁻¹g`, `z = β − W h` (into [`Node::f`]).
 #[inline]
-fn back_n<const N: usize>(node: &mut Node, k: usize, beta: &Wrench, with_b: bool) {
-    let s = &node.kin[k].s;
+fn back_n<const N: usize>(node: &mut Node, beta: &Wrench, with_b: bool) {
+    let s = node.kin.cols();
     let b6 = wrench6(beta);
     let mut g = [0.0; 6];
     for q in 0..N {
-        let mut acc = if with_b { node.bq[q] } else { 0.0 };
+        let mut acc = if with_b { node.x[q] } else { 0.0 };
         for r in 0..6 {
             acc += s[q][r] * b6[r];
         }
         g[q] = acc;
     }
-    let hh = lsolve::<N>(&node.l, &g);
+    let hh = lsolve::<N>(&node.wl, &g);
     let mut z = b6;
     for q in 0..N {
         for r in 0..6 {
-            z[r] -= node.w[q][r] * hh[q];
+            z[r] -= w_at::<N>(&node.wl, q, r) * hh[q];
         }
     }
     node.hh = hh;
-    node.z = Wrench {
+    node.f = Wrench {
         f: Vector3::new(z[0], z[1], z[2]),
         t: Vector3::new(z[3], z[4], z[5]),
     };
 }
 
 #[inline]
-fn back_node(node: &mut Node, k: usize, beta: &Wrench, with_b: bool) {
-    by_dof!(node.kin[k].dof, back_n(node, k, beta, with_b))
+fn back_node(node: &mut Node, beta: &Wrench, with_b: bool) {
+    by_dof!(node.kin.dof, back_n(node, beta, with_b))
 }
 
 /// Forward step of the solve at one position: `x = L⁻ᵀ(h − Wᵀy)`, `acc = y + S x`.
 #[inline]
-fn fwd_n<const N: usize>(node: &mut Node, k: usize, y: &Twist) {
+fn fwd_n<const N: usize>(node: &mut Node, y: &Twist) {
     let y6 = twist6(y);
     let mut rhs = node.hh;
     for q in 0..N {
         let mut acc = 0.0;
         for r in 0..6 {
-            acc += node.w[q][r] * y6[r];
+            acc += w_at::<N>(&node.wl, q, r) * y6[r];
         }
         rhs[q] -= acc;
     }
-    let x = ltsolve::<N>(&node.l, &rhs);
-    let s = &node.kin[k].s;
+    let x = ltsolve::<N>(&node.wl, &rhs);
+    let s = node.kin.cols();
     let mut a = y6;
     for q in 0..N {
         for r in 0..6 {
@@ -359,8 +404,8 @@ fn fwd_n<const N: usize>(node: &mut Node, k: usize, y: &Twist) {
 /// The forward step of the tree-exact solve at one position, given the transported
 /// parent acceleration `y = X u_p`: `x = L⁻ᵀ(h − Wᵀy)`, `Node::acc = y + S x`.
 #[inline]
-pub fn fwd(node: &mut Node, k: usize, y: &Twist) {
-    by_dof!(node.kin[k].dof, fwd_n(node, k, y))
+pub fn fwd(node: &mut Node, y: &Twist) {
+    by_dof!(node.kin.dof, fwd_n(node, y))
 }
 
 /// Which preconditioner [`Solver::pcg_reduced`] uses.
@@ -522,89 +567,126 @@ impl Solver<'_> {
             });
     }
 
-    /// Factor `AᵀMA` at the joint blocks `kin[k]` (leaf → root) and, when `with_f` or
+    /// Factor `AᵀMA` at the joint blocks `Node::kin` (leaf → root) and, when `with_f` or
     /// `with_b`, run the backward half of the solve in the same sweep. Returns the first
     /// position whose `D = SᵀIS` is not positive definite, if any.
-    pub fn factor_backward(
-        &self,
-        nodes: &mut [Node],
-        k: usize,
-        with_f: bool,
-        with_b: bool,
-    ) -> Option<usize> {
+    pub fn factor_backward(&self, nodes: &mut [Node], with_f: bool, with_b: bool) -> Option<usize> {
         let bad = std::sync::atomic::AtomicUsize::new(NONE);
         let solve = with_f || with_b;
         self.up(nodes, &|node, p, kids| {
             let mut ia = node.mass6();
             let mut beta = if with_f { node.f } else { Wrench::default() };
             kids(&mut |c: &Node| {
-                ia += xtpx(&c.kin[k], &c.pm);
+                ia += xtpx(&c.kin, &c.pm);
                 if solve {
-                    add_wrench(&mut beta, &c.kin[k].transport_t(&c.z));
+                    add_wrench(&mut beta, &c.kin.transport_t(&c.f));
                 }
             });
-            if !factor_node(node, k, &ia) {
+            if !factor_node(node, &ia) {
                 bad.fetch_min(p, std::sync::atomic::Ordering::Relaxed);
                 return;
             }
             if solve {
-                back_node(node, k, &beta, with_b);
+                back_node(node, &beta, with_b);
             }
         });
         let b = bad.into_inner();
         (b != NONE).then_some(b)
     }
 
-    /// Factor `AᵀMA` at `kin[k]` only.
-    pub fn factor(&self, nodes: &mut [Node], k: usize) -> Option<usize> {
-        self.factor_backward(nodes, k, false, false)
+    /// Leaf → root, the backward half of the solve with a velocity-product term, optionally
+    /// fused with the factorization (`factor`; else the existing one is used). At each
+    /// position `pre(node, p)` first fills the node's inputs: its joint blocks if they
+    /// change, the body force `Node::f` and the velocity-product acceleration `κ` of its
+    /// joint in `Node::a0`. With `u̇_c = X u̇_p + κ_c + S x_c` (the accelerations, `Ȧq̇`
+    /// included, in the same recursion: articulated-body style) a child hands its parent
+    /// `z − P κ` instead of `z`; [`fwd`] with `y = X u̇_p + κ_c` then gives the total
+    /// acceleration. Returns the first position whose `D = SᵀIS` is not positive
+    /// definite, if any.
+    pub fn backward_bias<F>(&self, nodes: &mut [Node], factor: bool, pre: &F) -> Option<usize>
+    where
+        F: Fn(&mut Node, usize) + Sync,
+    {
+        let bad = std::sync::atomic::AtomicUsize::new(NONE);
+        self.up(nodes, &|node, p, kids| {
+            pre(node, p);
+            let mut ia = if factor {
+                node.mass6()
+            } else {
+                Matrix6::zeros()
+            };
+            let mut beta = node.f;
+            kids(&mut |c: &Node| {
+                if factor {
+                    ia += xtpx(&c.kin, &c.pm);
+                }
+                add_wrench(&mut beta, &c.kin.transport_t(&c.f));
+            });
+            if factor && !factor_node(node, &ia) {
+                bad.fetch_min(p, std::sync::atomic::Ordering::Relaxed);
+                return;
+            }
+            back_node(node, &beta, false);
+            // z − P κ for the parent
+            let k6 = twist6(&node.a0);
+            let pk = node.pm * nalgebra::Vector6::from_column_slice(&k6);
+            node.f.f -= Vector3::new(pk[0], pk[1], pk[2]);
+            node.f.t -= Vector3::new(pk[3], pk[4], pk[5]);
+        });
+        let b = bad.into_inner();
+        (b != NONE).then_some(b)
+    }
+
+    /// Factor `AᵀMA` at `Node::kin` only.
+    pub fn factor(&self, nodes: &mut [Node]) -> Option<usize> {
+        self.factor_backward(nodes, false, false)
     }
 
     /// Backward half of the solve with an existing factorization (inputs `Node::f` if
-    /// `with_f`, `Node::bq` if `with_b`).
-    pub fn backward_solve(&self, nodes: &mut [Node], k: usize, with_f: bool, with_b: bool) {
+    /// `with_f`, `Node::x` if `with_b`).
+    pub fn backward_solve(&self, nodes: &mut [Node], with_f: bool, with_b: bool) {
         self.up(nodes, &|node, _, kids| {
             let mut beta = if with_f { node.f } else { Wrench::default() };
-            kids(&mut |c: &Node| add_wrench(&mut beta, &c.kin[k].transport_t(&c.z)));
-            back_node(node, k, &beta, with_b);
+            kids(&mut |c: &Node| add_wrench(&mut beta, &c.kin.transport_t(&c.f)));
+            back_node(node, &beta, with_b);
         });
     }
 
     /// Forward half of the solve: `Node::x` and `Node::acc = A x`.
-    pub fn forward_solve(&self, nodes: &mut [Node], k: usize) {
+    pub fn forward_solve(&self, nodes: &mut [Node]) {
         self.tree
             .sched
             .levels(nodes, false, &|start, br: &mut [Node], view| {
                 for i in 0..br.len() {
                     let y = match self.parent(i, start, br, view) {
-                        Some(p) => br[i].kin[k].transport(&p.acc),
+                        Some(p) => br[i].kin.transport(&p.acc),
                         None => Twist::default(),
                     };
-                    fwd(&mut br[i], k, &y);
+                    fwd(&mut br[i], &y);
                 }
             });
     }
 
     /// Solve `AᵀMA x = [b] + Aᵀ[f]` with the factorization of [`Solver::factor`]: the
-    /// inputs are `Node::bq` (if `with_b`) and `Node::f` (if `with_f`); the outputs
+    /// inputs are `Node::x` (if `with_b`) and `Node::f` (if `with_f`); the outputs
     /// `Node::x` and `Node::acc = (A x)`.
-    pub fn solve(&self, nodes: &mut [Node], k: usize, with_f: bool, with_b: bool) {
-        self.backward_solve(nodes, k, with_f, with_b);
-        self.forward_solve(nodes, k);
+    pub fn solve(&self, nodes: &mut [Node], with_f: bool, with_b: bool) {
+        self.backward_solve(nodes, with_f, with_b);
+        self.forward_solve(nodes);
     }
 
     /// `Node::acc = A x` for `x` in `Node::x` (root → leaf).
-    pub fn forward(&self, nodes: &mut [Node], k: usize) {
+    pub fn forward(&self, nodes: &mut [Node]) {
         self.tree
             .sched
             .levels(nodes, false, &|start, br: &mut [Node], view| {
                 for i in 0..br.len() {
                     let y = match self.parent(i, start, br, view) {
-                        Some(p) => br[i].kin[k].transport(&p.acc),
+                        Some(p) => br[i].kin.transport(&p.acc),
                         None => Twist::default(),
                     };
                     let node = &mut br[i];
-                    let s = node.kin[k].s_mul(&node.x);
+                    let s = node.kin.s_mul(&node.x);
                     node.acc = Twist {
                         v: y.v + s.v,
                         w: y.w + s.w,
@@ -613,27 +695,27 @@ impl Solver<'_> {
             });
     }
 
-    /// `Node::x = Aᵀ f` for the body forces in `Node::f` (leaf → root; uses `Node::z`
-    /// for the subtree forces).
-    pub fn backward(&self, nodes: &mut [Node], k: usize) {
+    /// `Node::x = Aᵀ f` for the body forces in `Node::f` (leaf → root; `Node::f` then
+    /// holds the subtree forces).
+    pub fn backward(&self, nodes: &mut [Node]) {
         self.up(nodes, &|node, _, kids| {
             let mut tot = node.f;
-            kids(&mut |c: &Node| add_wrench(&mut tot, &c.kin[k].transport_t(&c.z)));
-            node.z = tot;
+            kids(&mut |c: &Node| add_wrench(&mut tot, &c.kin.transport_t(&c.f)));
+            node.f = tot;
             let mut x = [0.0; 6];
-            node.kin[k].s_t(&tot, &mut x);
+            node.kin.s_t(&tot, &mut x);
             node.x = x;
         });
     }
 
     /// The operator `AᵀMA` matrix-free: `Node::x ← AᵀMA Node::x` (forward `A`, the
     /// constant body blocks `M_j`, backward `Aᵀ`).
-    pub fn apply(&self, nodes: &mut [Node], k: usize) {
-        self.forward(nodes, k);
+    pub fn apply(&self, nodes: &mut [Node]) {
+        self.forward(nodes);
         self.tree
             .sched
             .nodes(nodes, &|_, n: &mut Node| n.f = n.mass_mul(&n.acc));
-        self.backward(nodes, k);
+        self.backward(nodes);
     }
 
     /// Gather `Node::x` into the flat coordinate vector `out`.
@@ -643,25 +725,21 @@ impl Solver<'_> {
         }
     }
 
-    /// Scatter the flat coordinate vector `v` into `Node::x` (`to_b`: into `Node::bq`).
-    pub fn scatter(&self, nodes: &mut [Node], v: &[f64], to_b: bool) {
+    /// Scatter the flat coordinate vector `v` into `Node::x` (the solution of a forward
+    /// sweep, or the input `b` of a solve `with_b`).
+    pub fn scatter(&self, nodes: &mut [Node], v: &[f64]) {
         for (p, l) in self.tree.links.iter().enumerate() {
-            let dst = if to_b {
-                &mut nodes[p].bq
-            } else {
-                &mut nodes[p].x
-            };
-            dst[..l.dof].copy_from_slice(&v[l.off..l.off + l.dof]);
+            nodes[p].x[..l.dof].copy_from_slice(&v[l.off..l.off + l.dof]);
         }
     }
 
     /// Block-Jacobi preconditioner data: the Cholesky factors of `S_cᵀ I^C_c S_c` (composite
-    /// inertias), stored in `Node::l` (overwrites the factorization).
-    pub fn factor_block_jacobi(&self, nodes: &mut [Node], k: usize) {
+    /// inertias), stored in `Node::wl` (overwrites the factorization).
+    pub fn factor_block_jacobi(&self, nodes: &mut [Node]) {
         self.up(nodes, &|node, _, kids| {
             let mut ic = node.mass6();
-            kids(&mut |c: &Node| ic += xtpx(&c.kin[k], &c.pm));
-            let ok = factor_node(node, k, &ic);
+            kids(&mut |c: &Node| ic += xtpx(&c.kin, &c.pm));
+            let ok = factor_node(node, &ic);
             debug_assert!(ok);
             // the composite inertia is handed up unchanged (no projection)
             node.pm = ic;
@@ -675,7 +753,6 @@ impl Solver<'_> {
     pub fn pcg_reduced(
         &self,
         nodes: &mut [Node],
-        k: usize,
         pc: Precond,
         b: &[f64],
         x: &mut [f64],
@@ -684,10 +761,10 @@ impl Solver<'_> {
     ) -> PcgStats {
         match pc {
             Precond::TreeExact => {
-                let bad = self.factor(nodes, k);
+                let bad = self.factor(nodes);
                 assert!(bad.is_none(), "AᵀMA not positive definite");
             }
-            Precond::BlockJacobi => self.factor_block_jacobi(nodes, k),
+            Precond::BlockJacobi => self.factor_block_jacobi(nodes),
             Precond::Identity => {}
         }
         let n = b.len();
@@ -695,7 +772,6 @@ impl Solver<'_> {
         let mut ops = ReducedOps {
             solver: self,
             nodes,
-            k,
             pc,
         };
         pcg(&mut ops, b, x, &mut work, rtol, 0.0, max_iter)
@@ -706,14 +782,13 @@ impl Solver<'_> {
 struct ReducedOps<'s, 't, 'n> {
     solver: &'s Solver<'t>,
     nodes: &'n mut [Node],
-    k: usize,
     pc: Precond,
 }
 
 impl PcgOps for ReducedOps<'_, '_, '_> {
     fn apply(&mut self, p: &[f64], out: &mut [f64]) {
-        self.solver.scatter(self.nodes, p, false);
-        self.solver.apply(self.nodes, self.k);
+        self.solver.scatter(self.nodes, p);
+        self.solver.apply(self.nodes);
         self.solver.gather_x(self.nodes, out);
     }
 
@@ -725,17 +800,32 @@ impl PcgOps for ReducedOps<'_, '_, '_> {
                 for (p, l) in s.tree.links.iter().enumerate() {
                     let mut g = [0.0; 6];
                     g[..l.dof].copy_from_slice(&r[l.off..l.off + l.dof]);
-                    let lp = &self.nodes[p].l;
+                    let lp = &self.nodes[p].wl;
                     let y = by_dof!(l.dof, lsolve(lp, &g));
                     let x = by_dof!(l.dof, ltsolve(lp, &y));
                     z[l.off..l.off + l.dof].copy_from_slice(&x[..l.dof]);
                 }
             }
             Precond::TreeExact => {
-                s.scatter(self.nodes, r, true);
-                s.solve(self.nodes, self.k, false, true);
+                s.scatter(self.nodes, r);
+                s.solve(self.nodes, false, true);
                 s.gather_x(self.nodes, z);
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The per-body working set stays small (one set of joint blocks, packed
+    /// factorization): the sweeps of a step stream it (BENCHMARKS.md).
+    #[test]
+    fn node_is_compact() {
+        let n = std::mem::size_of::<Node>();
+        let k = std::mem::size_of::<TreeJointKin>();
+        eprintln!("Node: {n} bytes (TreeJointKin {k})");
+        assert!(n <= 1600, "Node is {n} bytes");
     }
 }
