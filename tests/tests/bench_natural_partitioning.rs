@@ -199,14 +199,14 @@ fn bench_natural_partitioning() {
         println!("load average at start: {}", l.trim());
     }
 
-    // 1. Scaling. All twelve scenes are built first and timed in interleaved rounds (best of
-    // five batches each), so a slow spell of the shared machine hits every N alike and the
-    // ratios t(N)/t(N/10) stay meaningful.
+    // 1. Scaling. All eighteen scenes are built first and timed in interleaved rounds (best
+    // of five batches each), so a slow spell of the shared machine hits every N alike and the
+    // ratios stay meaningful. N = 2500 and 5000 show where the working set leaves the cache.
     println!("\n## Scaling (natural_partitioning, 1 thread)\n");
-    println!("| scene | N | bodies | µs/step | ns/(step·body) | t(N)/t(N/10) | gyroscopic it./step | integrator memory | bytes/body | interpreter memory |");
-    println!("|---|---|---|---|---|---|---|---|---|---|");
+    println!("| scene | N | bodies | µs/step | ns/(step·body) | t(N)/t(N/10) | per body / per body at N = 1000 | gyroscopic it./step | integrator memory | bytes/body | interpreter memory |");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|");
     let names = ["chain_planar.mbd", "chain_spatial.mbd", "tree8.mbd"];
-    let sizes = [10usize, 100, 1000, 10000];
+    let sizes = [10usize, 100, 1000, 2500, 5000, 10000];
     let rows = natural::with_threads(1, || {
         let mut live: Vec<(&str, usize, usize, Live)> = Vec::new();
         for name in names {
@@ -225,22 +225,28 @@ fn bench_natural_partitioning() {
             .map(|(name, n, nb, l)| (name, n, nb, l.timing()))
             .collect::<Vec<_>>()
     });
-    let mut prev: Option<f64> = None;
-    for (name, n, nb, t) in rows {
-        if n == sizes[0] {
-            prev = None;
-        }
+    for (name, n, nb, t) in &rows {
+        let of = |m: usize| {
+            rows.iter()
+                .find(|(o, k, _, _)| o == name && *k == m)
+                .map(|(_, _, b, t)| (t.per_step, *b))
+        };
+        let decade = if n % 10 == 0 { of(n / 10) } else { None };
+        let per_body = t.per_step / *nb as f64;
         println!(
-            "| {name} | {n} | {nb} | {:.1} | {:.0} | {} | {:.2} | {:.2} MB | {} | {:.2} MB |",
+            "| {name} | {n} | {nb} | {:.1} | {:.0} | {} | {} | {:.2} | {:.2} MB | {} | {:.2} MB |",
             t.per_step * 1e6,
-            t.per_step * 1e9 / nb as f64,
-            prev.map_or("—".into(), |p| format!("{:.2}", t.per_step / p)),
-            stat(&t, "gyro_iterations_mean"),
+            per_body * 1e9,
+            decade.map_or("—".into(), |(p, _)| format!("{:.2}", t.per_step / p)),
+            of(1000).map_or("—".into(), |(p, b)| format!(
+                "{:.2}",
+                per_body / (p / b as f64)
+            )),
+            stat(t, "gyro_iterations_mean"),
             t.integrator_bytes as f64 / 1e6,
-            t.integrator_bytes / nb as isize,
+            t.integrator_bytes / *nb as isize,
             t.interp_bytes as f64 / 1e6,
         );
-        prev = Some(t.per_step);
     }
 
     // 2. Against the Lagrange-multiplier staggered method at N = 100.
