@@ -94,22 +94,6 @@ fn skew(a: &Vector3<f64>) -> Matrix3<f64> {
     Matrix3::new(0.0, -a.z, a.y, a.z, 0.0, -a.x, -a.y, a.x, 0.0)
 }
 
-#[inline(always)]
-fn rotation(q: &Quaternion<f64>) -> Matrix3<f64> {
-    let (w, x, y, z) = (q.w, q.i, q.j, q.k);
-    Matrix3::new(
-        1.0 - 2.0 * (y * y + z * z),
-        2.0 * (x * y - w * z),
-        2.0 * (x * z + w * y),
-        2.0 * (x * y + w * z),
-        1.0 - 2.0 * (x * x + z * z),
-        2.0 * (y * z - w * x),
-        2.0 * (x * z - w * y),
-        2.0 * (y * z + w * x),
-        1.0 - 2.0 * (x * x + y * y),
-    )
-}
-
 /// `A⁻¹ b` for a 3×3 matrix by cofactors; `None` if singular.
 #[inline(always)]
 fn solve3(a: &Matrix3<f64>, b: &Vector3<f64>) -> Option<Vector3<f64>> {
@@ -386,7 +370,7 @@ impl DoublePendulum {
             Dyn {
                 r: x.r + v * h,
                 q,
-                c: rotation(&q),
+                c: mbdc_runtime::math::rotation(&q),
                 v,
                 w,
             }

@@ -11,7 +11,7 @@
 //! `run_models.rs` (`a_failing_run_reports_and_keeps_its_frames`, with the halve-step retry).
 
 mod common;
-use common::{mbdc, root, s, scratch};
+use common::{last_frame, mbdc, root, s, scratch, summary};
 
 use std::path::{Path, PathBuf};
 
@@ -32,9 +32,7 @@ fn failed_run(name: &str, model: &Path, args: &[&str]) -> (serde_json::Value, St
     for part in ["stopped at t =", "cause:", "help:", "every frame up to"] {
         assert!(stderr.contains(part), "{name}: no `{part}` in\n{stderr}");
     }
-    let summary: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out_dir.join("summary.json")).unwrap())
-            .unwrap();
+    let summary = summary(&out_dir);
     assert_eq!(summary["finished"], false, "{name}: {summary}");
     let f = summary["failure"].clone();
     for key in [
@@ -43,17 +41,8 @@ fn failed_run(name: &str, model: &Path, args: &[&str]) -> (serde_json::Value, St
         assert!(!f[key].is_null(), "{name}: failure without `{key}`: {f}");
     }
     // every frame up to the failure is on disk: the header and at least the initial frame
-    let csv = std::fs::read_to_string(out_dir.join("bodies.csv")).unwrap();
-    assert!(csv.lines().count() >= 2, "{name}: bodies.csv has no frame");
-    let last_t: f64 = csv
-        .lines()
-        .last()
-        .unwrap()
-        .split(',')
-        .next()
-        .unwrap()
-        .parse()
-        .unwrap();
+    let (lines, last_t) = last_frame(&out_dir);
+    assert!(lines >= 2, "{name}: bodies.csv has no frame");
     assert!(last_t <= f["time"].as_f64().unwrap() + 1e-12, "{name}");
     let _ = std::fs::remove_dir_all(&dir);
     (f, stderr)

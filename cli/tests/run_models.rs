@@ -1,19 +1,14 @@
 //! End-to-end runs of `mbdc run --interp` on every rigid model, and of a run that fails.
 
 mod common;
-use common::{command, root};
+use common::{command, last_frame, root, summary};
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 fn out_dir(name: &str) -> PathBuf {
     let d = std::env::temp_dir().join(format!("mbdc-run-test-{}-{name}", std::process::id()));
     let _ = std::fs::remove_dir_all(&d);
     d
-}
-
-fn summary(dir: &Path) -> serde_json::Value {
-    let text = std::fs::read_to_string(dir.join("summary.json")).expect("summary.json");
-    serde_json::from_str(&text).expect("valid JSON")
 }
 
 /// Every rigid model runs to its end with its own settings, and the summary says so: finished,
@@ -94,21 +89,8 @@ fn a_failing_run_reports_and_keeps_its_frames() {
     );
     let t_fail = f["time"].as_f64().unwrap();
     // the frames up to the failure are on disk
-    let rows = std::fs::read_to_string(dir.join("bodies.csv"))
-        .unwrap()
-        .lines()
-        .count();
+    let (rows, last_t) = last_frame(&dir);
     assert!(rows >= 2, "only {rows} lines in bodies.csv");
-    let last_t: f64 = std::fs::read_to_string(dir.join("bodies.csv"))
-        .unwrap()
-        .lines()
-        .last()
-        .unwrap()
-        .split(',')
-        .next()
-        .unwrap()
-        .parse()
-        .unwrap();
     assert!(
         last_t <= t_fail + 1e-12,
         "frame at {last_t} after the failure at {t_fail}"

@@ -17,7 +17,7 @@ use nalgebra::Vector3;
 
 use crate::integrators::common::{self, accel};
 use crate::linalg::{Backend, Definiteness, KSolver, KSolverOptions, DEFAULT_PIVOT_TOL};
-use crate::system::{ConstraintEval, Need, Pose, RowKind, System, Twist, Wrench};
+use crate::system::{ConstraintEval, Layout, Need, Pose, RowKind, System, Twist, Wrench};
 
 /// What assembly changed, per body.
 #[derive(Clone, Debug, PartialEq)]
@@ -159,23 +159,10 @@ pub fn assemble<S: System>(
     }
     if res > tol.max(1e-9 * scale) {
         // name the joints with the largest residuals
-        let mut per_joint: Vec<(f64, &str)> = layout
-            .joints
-            .iter()
-            .map(|j| {
-                let v = (j.first_row..j.first_row + j.rows)
-                    .filter(|&r| hol[r])
-                    .fold(0.0f64, |a, r| a.max(ce.phi[r].abs()));
-                (v, j.name.as_str())
-            })
-            .filter(|(v, _)| *v > tol)
-            .collect();
-        per_joint.sort_by(|a, b| b.0.total_cmp(&a.0));
         return Err(AssemblyError::Conflict {
-            joints: per_joint
-                .iter()
+            joints: joints_by_residual(layout, &ce.phi, &hol, tol)
+                .into_iter()
                 .take(4)
-                .map(|(_, n)| n.to_string())
                 .collect(),
             residual: res,
             level: "position",
@@ -209,21 +196,9 @@ pub fn assemble<S: System>(
     // another joint holds still), which the pseudo-inverse can only split the difference of.
     let vtol = 1e-9 * vbefore.max(1.0);
     if vafter > vtol {
-        let mut per_joint: Vec<(f64, &str)> = layout
-            .joints
-            .iter()
-            .map(|j| {
-                let v = (j.first_row..j.first_row + j.rows)
-                    .filter(|&r| active[r])
-                    .fold(0.0f64, |a, r| a.max(y[r].abs()));
-                (v, j.name.as_str())
-            })
-            .filter(|(v, _)| *v > vtol)
-            .collect();
-        per_joint.sort_by(|a, b| b.0.total_cmp(&a.0));
         // The pseudo-inverse leaves the contradiction on whichever rows it drops, so name
         // with them the other joints on the same bodies: they are the other side of it.
-        let mut joints: Vec<String> = per_joint.iter().map(|(_, n)| n.to_string()).collect();
+        let mut joints = joints_by_residual(layout, &y, &active, vtol);
         let bodies: Vec<usize> = layout
             .joints
             .iter()
@@ -266,6 +241,24 @@ pub fn assemble<S: System>(
         residual: (before, res),
         velocity_residual: (vbefore, vafter),
     })
+}
+
+/// The names of the joints with a row in `rows` whose `|residual|` exceeds `tol`, largest
+/// residual first.
+fn joints_by_residual(layout: &Layout, residual: &[f64], rows: &[bool], tol: f64) -> Vec<String> {
+    let mut per_joint: Vec<(f64, &str)> = layout
+        .joints
+        .iter()
+        .map(|j| {
+            let v = (j.first_row..j.first_row + j.rows)
+                .filter(|&r| rows[r])
+                .fold(0.0f64, |a, r| a.max(residual[r].abs()));
+            (v, j.name.as_str())
+        })
+        .filter(|(v, _)| *v > tol)
+        .collect();
+    per_joint.sort_by(|a, b| b.0.total_cmp(&a.0));
+    per_joint.into_iter().map(|(_, n)| n.to_string()).collect()
 }
 
 #[cfg(test)]

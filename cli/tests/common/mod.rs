@@ -34,3 +34,22 @@ pub fn scratch(name: &str) -> PathBuf {
 pub fn s(p: &Path) -> &str {
     p.to_str().expect("utf-8 path")
 }
+
+/// The `summary.json` of the output folder `dir`.
+pub fn summary(dir: &Path) -> serde_json::Value {
+    let text = std::fs::read_to_string(dir.join("summary.json")).expect("summary.json");
+    serde_json::from_str(&text).expect("valid JSON")
+}
+
+/// The number of lines of `bodies.csv` in the output folder `dir` (header included) and the
+/// time of its last frame.
+pub fn last_frame(dir: &Path) -> (usize, f64) {
+    let csv = std::fs::read_to_string(dir.join("bodies.csv")).expect("bodies.csv");
+    let last = csv.lines().last().expect("a header at least");
+    let t = last
+        .split(',')
+        .next()
+        .and_then(|t| t.parse().ok())
+        .unwrap_or(f64::NAN);
+    (csv.lines().count(), t)
+}

@@ -574,13 +574,9 @@ impl Natural {
                     if l.joint == NONE {
                         continue;
                     }
-                    let parent = if i > 0 {
-                        br[i - 1].pose
-                    } else if l.parent == NONE {
-                        Pose::default()
-                    } else {
-                        view.get(l.parent).pose
-                    };
+                    let parent = view
+                        .parent(i, l.parent, br)
+                        .map_or(Pose::default(), |p| p.pose);
                     sys.tree_joint_project(l.joint, l.child_is_b, &parent, &mut br[i].pose);
                 }
             });
@@ -601,13 +597,9 @@ impl Natural {
                     for i in 0..br.len() {
                         let l = &tree.links[start + i];
                         let uc = src[l.body];
-                        let up = if i > 0 {
-                            br[i - 1].tw
-                        } else if l.parent == NONE {
-                            Twist::default()
-                        } else {
-                            view.get(l.parent).tw
-                        };
+                        let up = view
+                            .parent(i, l.parent, br)
+                            .map_or(Twist::default(), |p| p.tw);
                         let rates = if l.joint == NONE {
                             [uc.v.x, uc.v.y, uc.v.z, uc.w.x, uc.w.y, uc.w.z]
                         } else {
@@ -695,13 +687,7 @@ impl Natural {
             .levels(&mut self.nodes, false, &|start, br: &mut [Node], view| {
                 for i in 0..br.len() {
                     let l = &tree.links[start + i];
-                    let pacc = if i > 0 {
-                        Some(br[i - 1].acc)
-                    } else if l.parent == NONE {
-                        None
-                    } else {
-                        Some(view.get(l.parent).acc)
-                    };
+                    let pacc = view.parent(i, l.parent, br).map(|p| p.acc);
                     let node = &mut br[i];
                     let mut y = node.a0;
                     if let Some(pa) = pacc {
@@ -786,13 +772,7 @@ impl Natural {
                 let ground = Pose::default();
                 for i in 0..br.len() {
                     let l = &tree.links[start + i];
-                    let (pacc, ppose) = match if i > 0 {
-                        Some(&br[i - 1])
-                    } else if l.parent == NONE {
-                        None
-                    } else {
-                        Some(view.get(l.parent))
-                    } {
+                    let (pacc, ppose) = match view.parent(i, l.parent, br) {
                         Some(p) => (p.acc, p.pose),
                         None => (Twist::default(), ground),
                     };
@@ -840,13 +820,7 @@ impl Natural {
                 let ground = Pose::default();
                 for i in 0..br.len() {
                     let l = &tree.links[start + i];
-                    let (pacc, ppose) = match if i > 0 {
-                        Some(&br[i - 1])
-                    } else if l.parent == NONE {
-                        None
-                    } else {
-                        Some(view.get(l.parent))
-                    } {
+                    let (pacc, ppose) = match view.parent(i, l.parent, br) {
                         Some(p) => (p.acc, p.pose),
                         None => (Twist::default(), ground),
                     };

@@ -41,7 +41,7 @@
 use nalgebra::{Matrix3, Matrix6, Vector3};
 
 use super::kin::TreeJointKin;
-use super::tree::{Tree, View, NONE};
+use super::tree::{Tree, NONE};
 use crate::system::{MassProps, Twist, Wrench};
 
 /// Everything the recursions keep per tree position.
@@ -521,23 +521,6 @@ pub struct Solver<'t> {
 }
 
 impl Solver<'_> {
-    /// The parent's entry of position `start + i` (`None` for ground/free roots).
-    #[inline]
-    pub fn parent<'a>(
-        &self,
-        i: usize,
-        start: usize,
-        br: &'a [Node],
-        view: &'a View<'_, Node>,
-    ) -> Option<&'a Node> {
-        if i > 0 {
-            Some(&br[i - 1])
-        } else {
-            let p = self.tree.links[start].parent;
-            (p != NONE).then(|| view.get(p))
-        }
-    }
-
     /// Leaf → root over the tree: at each position `f(node, children)` where the children
     /// (already processed) are visited by the callback's second argument.
     #[inline]
@@ -658,7 +641,7 @@ impl Solver<'_> {
             .sched
             .levels(nodes, false, &|start, br: &mut [Node], view| {
                 for i in 0..br.len() {
-                    let y = match self.parent(i, start, br, view) {
+                    let y = match view.parent(i, self.tree.links[start].parent, br) {
                         Some(p) => br[i].kin.transport(&p.acc),
                         None => Twist::default(),
                     };
@@ -681,7 +664,7 @@ impl Solver<'_> {
             .sched
             .levels(nodes, false, &|start, br: &mut [Node], view| {
                 for i in 0..br.len() {
-                    let y = match self.parent(i, start, br, view) {
+                    let y = match view.parent(i, self.tree.links[start].parent, br) {
                         Some(p) => br[i].kin.transport(&p.acc),
                         None => Twist::default(),
                     };

@@ -287,6 +287,18 @@ impl<T> View<'_, T> {
             &self.after[p - self.after_start]
         }
     }
+
+    /// The parent of entry `i` of a branch `br` whose first entry's parent is at absolute
+    /// position `parent` (`NONE`: a root): the previous entry of the branch, or for the first
+    /// entry the one at `parent` outside the level; `None` for a root.
+    #[inline]
+    pub fn parent<'b>(&'b self, i: usize, parent: usize, br: &'b [T]) -> Option<&'b T> {
+        if i > 0 {
+            Some(&br[i - 1])
+        } else {
+            (parent != NONE).then(|| self.get(parent))
+        }
+    }
 }
 
 impl Schedule {
