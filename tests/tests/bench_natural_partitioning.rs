@@ -131,12 +131,22 @@ struct Live {
 
 impl Live {
     fn new(scene: &Scene, method: &MethodSpec, steps: usize) -> Live {
+        Live::with(scene, steps, |sys, start| {
+            integrators::make(method, sys, scene.simulate.step, start).expect("start")
+        })
+    }
+
+    fn with(
+        scene: &Scene,
+        steps: usize,
+        make: impl FnOnce(&Interp, &State) -> Box<dyn Integrator<Interp>>,
+    ) -> Live {
         let m0 = live();
         let sys = Interp::new(scene).expect("interpretable");
         let interp_bytes = live() - m0;
         let start = State::initial(&sys);
         let m1 = live();
-        let mut it = integrators::make(method, &sys, scene.simulate.step, &start).expect("start");
+        let mut it = make(&sys, &start);
         let integrator_bytes = live() - m1;
         for _ in 0..2 {
             it.step(&sys).expect("warm-up step");
@@ -427,4 +437,39 @@ fn profile_natural() {
         time_method_with(&scene, &np(), steps, Clock::Wall)
     });
     println!("{name} N={n}: {:.1} µs/step", t.per_step * 1e6);
+}
+
+/// Quick check of the scaling target: `NP_SCENE=tree8.mbd cargo test ... quick_ratio --
+/// --ignored --nocapture` times N = 1000 and 10000 of one scene in interleaved rounds
+/// (`NP_ROUNDS`, default 5) and prints t(10000)/t(1000).
+#[test]
+#[ignore]
+fn quick_ratio() {
+    let name = std::env::var("NP_SCENE").unwrap_or("chain_planar.mbd".into());
+    let rounds: usize = std::env::var("NP_ROUNDS").map_or(5, |v| v.parse().unwrap());
+    natural::with_threads(1, || {
+        let mut live: Vec<(usize, Live)> = [1000usize, 10000]
+            .into_iter()
+            .map(|n| {
+                let scene = load(&name, "N", n);
+                let nb = scene.bodies.len();
+                (nb, Live::new(&scene, &np(), steps_for(nb)))
+            })
+            .collect();
+        for _ in 0..rounds {
+            for (_, l) in live.iter_mut() {
+                l.batch(Clock::Cpu);
+            }
+        }
+        let t: Vec<(usize, f64)> = live
+            .into_iter()
+            .map(|(nb, l)| (nb, l.timing().per_step))
+            .collect();
+        println!(
+            "{name}: {:.0} / {:.0} ns/(step·body) at 1000 / 10000, ratio {:.2}",
+            t[0].1 * 1e9 / t[0].0 as f64,
+            t[1].1 * 1e9 / t[1].0 as f64,
+            t[1].1 / t[0].1
+        );
+    });
 }

@@ -102,7 +102,7 @@ use super::{Integrator, StartError, State, StepError, StepInfo};
 use crate::math::cayley_update;
 use crate::system::{ConstraintEval, Layout, Need, Pose, RowJac, RowKind, System, Twist, Wrench};
 use kin::TreeJointKin;
-use reduced::{free_kin, pcg, Node, PcgOps, Solver};
+use reduced::{free_kin, pcg, Factor, Node, PcgOps, Solver};
 use tree::{Tree, NONE};
 
 /// The leapfrog sequence (body order): positions at τ, velocities at τ − h/2.
@@ -140,6 +140,11 @@ pub struct Natural {
     /// body: the midpoint kick evaluates `ω̄` with it.
     gc: Vec<Vector3<f64>>,
     trial: Seq,
+    /// Keep `P` at every position in the step's factorization (the last step needed more
+    /// than one gyroscopic iteration).
+    keep_p: bool,
+    /// Whether the factorization in the nodes kept `P` at every position.
+    p_kept: bool,
     tau: f64,
     t0: f64,
     half_steps: u64,
@@ -348,6 +353,8 @@ impl Natural {
                 pose: start.pose.clone(),
                 vel: start.twist.clone(),
             },
+            keep_p: false,
+            p_kept: false,
             tau: start.t,
             t0: start.t,
             half_steps: 0,
@@ -626,14 +633,14 @@ impl Natural {
     /// `Node::f = F − ω × Jω` (`F` in `self.applied`, gyroscopic term at the synchronous
     /// velocities `vs`) and the velocity-product term `κ` of its joint at `vs` (in
     /// `Node::a0`), at the poses `pose`, with (`with_kin`) the joint blocks `Node::kin` at
-    /// those poses first; then (`factor`) the factorization of `AᵀMA` and the backward half
-    /// of the free solve, all in one sweep ([`Solver::backward_bias`]).
+    /// those poses first; then the factorization of `AᵀMA` as `factor` says and the
+    /// backward half of the free solve, all in one sweep ([`Solver::backward_bias`]).
     fn forces_backward<S: System>(
         &mut self,
         sys: &S,
         pose: &[Pose],
         with_kin: bool,
-        factor: bool,
+        factor: Factor,
     ) -> Result<(), StepError> {
         let tree = &self.tree;
         let applied = &self.applied;
@@ -715,7 +722,7 @@ impl Natural {
     ) -> Result<(), StepError> {
         sys.applied(t, pose, vl, &mut self.applied);
         self.vs.copy_from_slice(vs);
-        self.forces_backward(sys, pose, false, true)?;
+        self.forces_backward(sys, pose, false, Factor::Make)?;
         self.free_forward();
         Ok(())
     }
@@ -928,7 +935,15 @@ impl Natural {
         // factorization and the backward half of the free solve, in one sweep.
         sys.applied(self.tau, &self.seq.pose, &self.seq.vel, &mut self.applied);
         let pose = std::mem::take(&mut self.seq.pose);
-        let r = self.forces_backward(sys, &pose, true, true);
+        // keep every P when the last step needed a second gyroscopic iteration (this one
+        // likely will, and can then skip the factorization)
+        let factor = if self.keep_p {
+            Factor::MakeAndKeep
+        } else {
+            Factor::Make
+        };
+        let r = self.forces_backward(sys, &pose, true, factor);
+        self.p_kept = self.keep_p;
         self.seq.pose = pose;
         r?;
         if has_cut {
@@ -947,9 +962,17 @@ impl Natural {
         let mut converged = false;
         while gyro_it < MAX_GYRO {
             if gyro_it > 0 {
-                // the forces at the new estimate ū, with the factorization at τ
+                // the forces at the new estimate ū with the factorization at τ; if the
+                // sweep above kept `P` only where branches start, the factorization is made
+                // again (the same numbers: the joint blocks have not changed) and kept
+                let factor = if self.p_kept {
+                    Factor::Kept
+                } else {
+                    Factor::MakeAndKeep
+                };
+                self.p_kept = true;
                 let pose = std::mem::take(&mut self.seq.pose);
-                let r = self.forces_backward(sys, &pose, false, false);
+                let r = self.forces_backward(sys, &pose, false, factor);
                 self.seq.pose = pose;
                 r?;
             }
@@ -967,6 +990,7 @@ impl Natural {
             }
         }
         self.steps += 1;
+        self.keep_p = gyro_it > 1;
         self.gyro_total += gyro_it as u64;
         self.gyro_max = self.gyro_max.max(gyro_it);
         if !converged {
@@ -1538,6 +1562,62 @@ mod tests {
     /// The accelerations of the reduced equations equal the index-1 solution of the full
     /// system (`common::Index1`, reference) on random trees at random configurations with
     /// random consistent velocities `u = A q̇`, to 1e-9 relative.
+    /// `P` is handed to the parent in a local and stored only where a branch starts
+    /// (`Solver::up_handing`): factoring that way, factoring and keeping every `P`, and
+    /// reusing the kept ones give the same bits, on random trees (branched ones included)
+    /// with random forces and velocity-product terms.
+    #[test]
+    fn factor_modes_agree_bitwise() {
+        for seed in 0..30u64 {
+            let mut rng = Rng::new(7000 + seed);
+            let n = 1 + rng.below(12);
+            let scene = random_scene(&mut rng, n, 0);
+            let sys = Interp::new(&scene).unwrap();
+            let mut s = natural(&sys);
+            let (pose, _) = random_state(&mut rng, n);
+            s.kinematics(&sys, &pose);
+            let np = s.nodes.len();
+            let inputs: Vec<(Wrench, Twist)> = (0..np)
+                .map(|_| {
+                    let mut v = || Vector3::new(rng.normal(), rng.normal(), rng.normal());
+                    (Wrench { f: v(), t: v() }, Twist { v: v(), w: v() })
+                })
+                .collect();
+            let pre = |node: &mut Node, p: usize| {
+                node.f = inputs[p].0;
+                node.a0 = inputs[p].1;
+            };
+            let solver = Solver { tree: &s.tree };
+            let out = |nodes: &[Node]| -> Vec<[f64; 12]> {
+                nodes
+                    .iter()
+                    .map(|n| {
+                        let mut o = [0.0; 12];
+                        o[..6].copy_from_slice(&n.hh);
+                        o[6..].copy_from_slice(&[
+                            n.f.f.x, n.f.f.y, n.f.f.z, n.f.t.x, n.f.t.y, n.f.t.z,
+                        ]);
+                        o
+                    })
+                    .collect()
+            };
+            let mut nodes = s.nodes.clone();
+            assert!(solver
+                .backward_bias(&mut nodes, Factor::Make, &pre)
+                .is_none());
+            let made = out(&nodes);
+            let mut kept = s.nodes.clone();
+            assert!(solver
+                .backward_bias(&mut kept, Factor::MakeAndKeep, &pre)
+                .is_none());
+            assert_eq!(out(&kept), made, "seed {seed}: keep every P");
+            assert!(solver
+                .backward_bias(&mut kept, Factor::Kept, &pre)
+                .is_none());
+            assert_eq!(out(&kept), made, "seed {seed}: reuse the kept P");
+        }
+    }
+
     #[test]
     fn reduced_accelerations_equal_index1() {
         for seed in 0..40u64 {

@@ -54,6 +54,7 @@ use crate::system::{MassProps, Twist, Wrench};
 /// term `κ`, then the free acceleration): 1544 bytes (3312 with the two sets of joint blocks of the old
 /// two-sequence integrator).
 #[derive(Clone, Debug)]
+#[repr(align(64))]
 pub struct Node {
     /// Mass.
     pub m: f64,
@@ -61,8 +62,9 @@ pub struct Node {
     pub j: Matrix3<f64>,
     /// Joint blocks at the current positions.
     pub kin: TreeJointKin,
-    /// `P_c` handed to the parent (leaf → root factorization); the composite inertia
-    /// for block-Jacobi.
+    /// `P_c` handed to the parent (leaf → root factorization; the composite inertia for
+    /// block-Jacobi), stored only at a branch's first position: within a branch it is
+    /// handed over in a local ([`Solver::up_handing`]). Meaningless elsewhere.
     pub pm: Matrix6<f64>,
     /// The factorization of `D = SᵀIS = L Lᵀ` and `W = I S L⁻ᵀ`, packed by the number of
     /// rates `n`: for `n ≤ 3` the columns of `W` (`6n` entries) then the lower triangle
@@ -255,10 +257,10 @@ macro_rules! by_dof {
     };
 }
 
-/// Factor one position given its articulated inertia `ia`: `wl` and `pm = P`.
+/// Factor one position given its articulated inertia `ia`: `Node::wl`, and `P` into `p`.
 /// Returns false when `D = SᵀIS` is not positive definite.
 #[inline]
-fn factor_n<const N: usize>(node: &mut Node, ia: &Matrix6<f64>) -> bool {
+fn factor_n<const N: usize>(node: &mut Node, ia: &Matrix6<f64>, p: &mut Matrix6<f64>) -> bool {
     let s = node.kin.cols();
     // U = I S (columns; S = I₆ for a free root), then D = Sᵀ U factorized into l
     let mut u = [[0.0; 6]; 6];
@@ -312,7 +314,6 @@ fn factor_n<const N: usize>(node: &mut Node, ia: &Matrix6<f64>) -> bool {
         }
     }
     // P = I − W Wᵀ
-    let p = &mut node.pm;
     for j in 0..6 {
         for i in 0..6 {
             let mut acc = ia[(i, j)];
@@ -337,8 +338,8 @@ fn factor_n<const N: usize>(node: &mut Node, ia: &Matrix6<f64>) -> bool {
 }
 
 #[inline]
-fn factor_node(node: &mut Node, ia: &Matrix6<f64>) -> bool {
-    by_dof!(node.kin.dof, factor_n(node, ia))
+fn factor_node(node: &mut Node, ia: &Matrix6<f64>, p: &mut Matrix6<f64>) -> bool {
+    by_dof!(node.kin.dof, factor_n(node, ia, p))
 }
 
 /// Backward step of the solve at one position: `g = b + Sᵀβ` (`b` in [`Node::x`] when
@@ -406,6 +407,17 @@ fn fwd_n<const N: usize>(node: &mut Node, y: &Twist) {
 #[inline]
 pub fn fwd(node: &mut Node, y: &Twist) {
     by_dof!(node.kin.dof, fwd_n(node, y))
+}
+
+/// Whether [`Solver::backward_bias`] factors `AᵀMA`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Factor {
+    /// Factor; keep `P` only where a branch starts (what the sweep needs).
+    Make,
+    /// Factor and keep `P` at every position, for a later [`Factor::Kept`].
+    MakeAndKeep,
+    /// Use the factorization and the `P`s the last [`Factor::MakeAndKeep`] left.
+    Kept,
 }
 
 /// Which preconditioner [`Solver::pcg_reduced`] uses.
@@ -550,22 +562,76 @@ impl Solver<'_> {
             });
     }
 
+    /// Leaf → root over the tree for the sweeps that hand a `6 × 6` matrix to the parent
+    /// (`P`, or the composite inertia): at each position `f(node, children, out)` where the
+    /// children are visited with their matrices and `f` writes the position's own into
+    /// `out`. Within a branch the matrix passes to the parent (the previous entry) in a
+    /// local; only a branch's first position, whose parent lies in another branch, stores
+    /// it in [`Node::pm`]. So a step neither reads nor writes 288 bytes per body of memory
+    /// for it (measured: per body cost at N = 10 000, docs/methods.md).
+    /// With `keep_all` every position stores its matrix (for a later sweep that reuses
+    /// them).
+    #[inline]
+    fn up_handing<F>(&self, nodes: &mut [Node], keep_all: bool, f: &F)
+    where
+        F: Fn(
+                &mut Node,
+                usize,
+                &mut dyn FnMut(&mut dyn FnMut(&Node, &Matrix6<f64>)),
+                &mut Matrix6<f64>,
+            ) + Sync,
+    {
+        self.tree
+            .sched
+            .levels(nodes, true, &|start, br: &mut [Node], view| {
+                // the matrix of br[i + 1]
+                let mut carry = Matrix6::zeros();
+                for i in (0..br.len()).rev() {
+                    let (head, tail) = br.split_at_mut(i + 1);
+                    let node = &mut head[i];
+                    let tail = &*tail;
+                    let p = start + i;
+                    let mut out = Matrix6::zeros();
+                    {
+                        let carry = &carry;
+                        let mut kids = |g: &mut dyn FnMut(&Node, &Matrix6<f64>)| {
+                            if !tail.is_empty() {
+                                g(&tail[0], carry);
+                            } else {
+                                for &c in self.tree.children(p) {
+                                    let n = view.get(c);
+                                    g(n, &n.pm);
+                                }
+                            }
+                        };
+                        f(node, p, &mut kids, &mut out);
+                    }
+                    if i == 0 || keep_all {
+                        node.pm = out;
+                    }
+                    if i > 0 {
+                        carry = out;
+                    }
+                }
+            });
+    }
+
     /// Factor `AᵀMA` at the joint blocks `Node::kin` (leaf → root) and, when `with_f` or
     /// `with_b`, run the backward half of the solve in the same sweep. Returns the first
     /// position whose `D = SᵀIS` is not positive definite, if any.
     pub fn factor_backward(&self, nodes: &mut [Node], with_f: bool, with_b: bool) -> Option<usize> {
         let bad = std::sync::atomic::AtomicUsize::new(NONE);
         let solve = with_f || with_b;
-        self.up(nodes, &|node, p, kids| {
+        self.up_handing(nodes, false, &|node, p, kids, pm| {
             let mut ia = node.mass6();
             let mut beta = if with_f { node.f } else { Wrench::default() };
-            kids(&mut |c: &Node| {
-                ia += xtpx(&c.kin, &c.pm);
+            kids(&mut |c: &Node, cp: &Matrix6<f64>| {
+                ia += xtpx(&c.kin, cp);
                 if solve {
                     add_wrench(&mut beta, &c.kin.transport_t(&c.f));
                 }
             });
-            if !factor_node(node, &ia) {
+            if !factor_node(node, &ia, pm) {
                 bad.fetch_min(p, std::sync::atomic::Ordering::Relaxed);
                 return;
             }
@@ -586,36 +652,55 @@ impl Solver<'_> {
     /// `z − P κ` instead of `z`; [`fwd`] with `y = X u̇_p + κ_c` then gives the total
     /// acceleration. Returns the first position whose `D = SᵀIS` is not positive
     /// definite, if any.
-    pub fn backward_bias<F>(&self, nodes: &mut [Node], factor: bool, pre: &F) -> Option<usize>
+    ///
+    /// `factor`: [`Factor::Make`] factors (and [`Factor::MakeAndKeep`] also stores `P` at
+    /// every position, so that a later sweep can use [`Factor::Kept`]); [`Factor::Kept`]
+    /// uses the factorization and the `P` of every position the last `MakeAndKeep` left.
+    pub fn backward_bias<F>(&self, nodes: &mut [Node], factor: Factor, pre: &F) -> Option<usize>
     where
         F: Fn(&mut Node, usize) + Sync,
     {
         let bad = std::sync::atomic::AtomicUsize::new(NONE);
-        self.up(nodes, &|node, p, kids| {
+        let make = factor != Factor::Kept;
+        let step = |node: &mut Node,
+                    p: usize,
+                    kids: &mut dyn FnMut(&mut dyn FnMut(&Node, &Matrix6<f64>)),
+                    pm: &mut Matrix6<f64>| {
             pre(node, p);
-            let mut ia = if factor {
-                node.mass6()
-            } else {
-                Matrix6::zeros()
-            };
+            let mut ia = if make { node.mass6() } else { Matrix6::zeros() };
             let mut beta = node.f;
-            kids(&mut |c: &Node| {
-                if factor {
-                    ia += xtpx(&c.kin, &c.pm);
+            kids(&mut |c: &Node, cp: &Matrix6<f64>| {
+                if make {
+                    ia += xtpx(&c.kin, cp);
                 }
                 add_wrench(&mut beta, &c.kin.transport_t(&c.f));
             });
-            if factor && !factor_node(node, &ia) {
+            if make && !factor_node(node, &ia, pm) {
                 bad.fetch_min(p, std::sync::atomic::Ordering::Relaxed);
                 return;
             }
             back_node(node, &beta, false);
             // z − P κ for the parent
             let k6 = twist6(&node.a0);
-            let pk = node.pm * nalgebra::Vector6::from_column_slice(&k6);
+            let pk = *pm * nalgebra::Vector6::from_column_slice(&k6);
             node.f.f -= Vector3::new(pk[0], pk[1], pk[2]);
             node.f.t -= Vector3::new(pk[3], pk[4], pk[5]);
-        });
+        };
+        match factor {
+            Factor::Make => self.up_handing(nodes, false, &step),
+            Factor::MakeAndKeep => self.up_handing(nodes, true, &step),
+            Factor::Kept => self.up(nodes, &|node, p, kids| {
+                let mut pm = node.pm;
+                step(
+                    node,
+                    p,
+                    &mut |g: &mut dyn FnMut(&Node, &Matrix6<f64>)| {
+                        kids(&mut |c: &Node| g(c, &c.pm))
+                    },
+                    &mut pm,
+                )
+            }),
+        }
         let b = bad.into_inner();
         (b != NONE).then_some(b)
     }
@@ -719,13 +804,14 @@ impl Solver<'_> {
     /// Block-Jacobi preconditioner data: the Cholesky factors of `S_cᵀ I^C_c S_c` (composite
     /// inertias), stored in `Node::wl` (overwrites the factorization).
     pub fn factor_block_jacobi(&self, nodes: &mut [Node]) {
-        self.up(nodes, &|node, _, kids| {
+        self.up_handing(nodes, false, &|node, _, kids, out| {
             let mut ic = node.mass6();
-            kids(&mut |c: &Node| ic += xtpx(&c.kin, &c.pm));
-            let ok = factor_node(node, &ic);
+            kids(&mut |c: &Node, cp: &Matrix6<f64>| ic += xtpx(&c.kin, cp));
+            let mut p = Matrix6::zeros();
+            let ok = factor_node(node, &ic, &mut p);
             debug_assert!(ok);
             // the composite inertia is handed up unchanged (no projection)
-            node.pm = ic;
+            *out = ic;
         });
     }
 
