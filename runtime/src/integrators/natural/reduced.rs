@@ -525,6 +525,10 @@ pub fn pcg<O: PcgOps>(
     }
 }
 
+/// The children visitor of [`Solver::up_handing`]: calls its argument with each child and
+/// the matrix it hands over.
+type Handing<'a> = dyn FnMut(&mut dyn FnMut(&Node, &Matrix6<f64>)) + 'a;
+
 /// The recursions over a [`Tree`]; the per-position data lives in a `[Node]` the caller
 /// owns (so an integrator can keep one per use).
 pub struct Solver<'t> {
@@ -574,12 +578,7 @@ impl Solver<'_> {
     #[inline]
     fn up_handing<F>(&self, nodes: &mut [Node], keep_all: bool, f: &F)
     where
-        F: Fn(
-                &mut Node,
-                usize,
-                &mut dyn FnMut(&mut dyn FnMut(&Node, &Matrix6<f64>)),
-                &mut Matrix6<f64>,
-            ) + Sync,
+        F: Fn(&mut Node, usize, &mut Handing<'_>, &mut Matrix6<f64>) + Sync,
     {
         self.tree
             .sched
@@ -662,10 +661,7 @@ impl Solver<'_> {
     {
         let bad = std::sync::atomic::AtomicUsize::new(NONE);
         let make = factor != Factor::Kept;
-        let step = |node: &mut Node,
-                    p: usize,
-                    kids: &mut dyn FnMut(&mut dyn FnMut(&Node, &Matrix6<f64>)),
-                    pm: &mut Matrix6<f64>| {
+        let step = |node: &mut Node, p: usize, kids: &mut Handing<'_>, pm: &mut Matrix6<f64>| {
             pre(node, p);
             let mut ia = if make { node.mass6() } else { Matrix6::zeros() };
             let mut beta = node.f;
