@@ -127,7 +127,6 @@ struct Live {
     sys: Interp,
     it: Box<dyn Integrator<Interp>>,
     steps: usize,
-    best: f64,
     /// Seconds per step of every batch.
     all: Vec<f64>,
     integrator_bytes: isize,
@@ -136,22 +135,12 @@ struct Live {
 
 impl Live {
     fn new(scene: &Scene, method: &MethodSpec, steps: usize) -> Live {
-        Live::with(scene, steps, |sys, start| {
-            integrators::make(method, sys, scene.simulate.step, start).expect("start")
-        })
-    }
-
-    fn with(
-        scene: &Scene,
-        steps: usize,
-        make: impl FnOnce(&Interp, &State) -> Box<dyn Integrator<Interp>>,
-    ) -> Live {
         let m0 = live();
         let sys = Interp::new(scene).expect("interpretable");
         let interp_bytes = live() - m0;
         let start = State::initial(&sys);
         let m1 = live();
-        let mut it = make(&sys, &start);
+        let mut it = integrators::make(method, &sys, scene.simulate.step, &start).expect("start");
         let integrator_bytes = live() - m1;
         for _ in 0..2 {
             it.step(&sys).expect("warm-up step");
@@ -160,14 +149,13 @@ impl Live {
             sys,
             it,
             steps,
-            best: f64::INFINITY,
             all: Vec::new(),
             integrator_bytes,
             interp_bytes,
         }
     }
 
-    /// One batch of `steps` steps; keeps the best time per step.
+    /// One batch of `steps` steps; records its time per step.
     fn batch(&mut self, clock: Clock) {
         let (t, c) = (Instant::now(), cpu_time());
         for _ in 0..self.steps {
@@ -177,13 +165,12 @@ impl Live {
             Clock::Cpu => cpu_time() - c,
             Clock::Wall => t.elapsed().as_secs_f64(),
         };
-        self.best = self.best.min(dt / self.steps as f64);
         self.all.push(dt / self.steps as f64);
     }
 
     fn timing(self) -> Timing {
         Timing {
-            per_step: self.best,
+            per_step: self.all.iter().copied().fold(f64::INFINITY, f64::min),
             median: {
                 let mut a = self.all.clone();
                 a.sort_by(f64::total_cmp);

@@ -143,8 +143,6 @@ pub struct Natural {
     /// Keep `P` at every position in the step's factorization (the last step needed more
     /// than one gyroscopic iteration).
     keep_p: bool,
-    /// Whether the factorization in the nodes kept `P` at every position.
-    p_kept: bool,
     tau: f64,
     t0: f64,
     half_steps: u64,
@@ -354,7 +352,6 @@ impl Natural {
                 vel: start.twist.clone(),
             },
             keep_p: false,
-            p_kept: false,
             tau: start.t,
             t0: start.t,
             half_steps: 0,
@@ -943,7 +940,8 @@ impl Natural {
             Factor::Make
         };
         let r = self.forces_backward(sys, &pose, true, factor);
-        self.p_kept = self.keep_p;
+        // whether the factorization in the nodes holds `P` at every position
+        let mut p_kept = self.keep_p;
         self.seq.pose = pose;
         r?;
         if has_cut {
@@ -965,12 +963,12 @@ impl Natural {
                 // the forces at the new estimate ū with the factorization at τ; if the
                 // sweep above kept `P` only where branches start, the factorization is made
                 // again (the same numbers: the joint blocks have not changed) and kept
-                let factor = if self.p_kept {
+                let factor = if p_kept {
                     Factor::Kept
                 } else {
                     Factor::MakeAndKeep
                 };
-                self.p_kept = true;
+                p_kept = true;
                 let pose = std::mem::take(&mut self.seq.pose);
                 let r = self.forces_backward(sys, &pose, false, factor);
                 self.seq.pose = pose;
@@ -1512,16 +1510,23 @@ mod tests {
         Natural::new(sys, 1e-3, None, 1e-12, &st).expect("start")
     }
 
+    /// A random tree of `n` bodies, its interpreter, the method, and a random state (in
+    /// that order from `rng`) with the joint blocks at its poses.
+    fn posed_tree(rng: &mut Rng, n: usize) -> (Interp, Natural, Vec<Pose>, Vec<Twist>) {
+        let scene = random_scene(rng, n, 0);
+        let sys = Interp::new(&scene).unwrap();
+        let mut s = natural(&sys);
+        let (pose, vel) = random_state(rng, n);
+        s.kinematics(&sys, &pose);
+        (sys, s, pose, vel)
+    }
+
     /// `B A = 0` for every tree row over random trees at random (violated)
     /// configurations: the columns of `A` (one forward pass per independent coordinate)
     /// are annihilated by the kernels' Jacobian rows.
     fn check_ba(seed: u64, n: usize) {
         let mut rng = Rng::new(seed);
-        let scene = random_scene(&mut rng, n, 0);
-        let sys = Interp::new(&scene).unwrap();
-        let mut s = natural(&sys);
-        let (pose, vel) = random_state(&mut rng, n);
-        s.kinematics(&sys, &pose);
+        let (sys, mut s, pose, vel) = posed_tree(&mut rng, n);
         let layout = sys.layout();
         let mut ce = ConstraintEval::new(layout.rows);
         sys.constraints(0.0, &pose, &vel, Need::JAC, &mut ce);
@@ -1559,9 +1564,6 @@ mod tests {
         }
     }
 
-    /// The accelerations of the reduced equations equal the index-1 solution of the full
-    /// system (`common::Index1`, reference) on random trees at random configurations with
-    /// random consistent velocities `u = A q̇`, to 1e-9 relative.
     /// `P` is handed to the parent in a local and stored only where a branch starts
     /// (`Solver::up_handing`): factoring that way, factoring and keeping every `P`, and
     /// reusing the kept ones give the same bits, on random trees (branched ones included)
@@ -1571,11 +1573,7 @@ mod tests {
         for seed in 0..30u64 {
             let mut rng = Rng::new(7000 + seed);
             let n = 1 + rng.below(12);
-            let scene = random_scene(&mut rng, n, 0);
-            let sys = Interp::new(&scene).unwrap();
-            let mut s = natural(&sys);
-            let (pose, _) = random_state(&mut rng, n);
-            s.kinematics(&sys, &pose);
+            let (_sys, s, _, _) = posed_tree(&mut rng, n);
             let np = s.nodes.len();
             let inputs: Vec<(Wrench, Twist)> = (0..np)
                 .map(|_| {
@@ -1618,17 +1616,16 @@ mod tests {
         }
     }
 
+    /// The accelerations of the reduced equations equal the index-1 solution of the full
+    /// system (`common::Index1`, reference) on random trees at random configurations with
+    /// random consistent velocities `u = A q̇`, to 1e-9 relative.
     #[test]
     fn reduced_accelerations_equal_index1() {
         for seed in 0..40u64 {
             let mut rng = Rng::new(1000 + seed);
             let n = 1 + rng.below(10);
-            let scene = random_scene(&mut rng, n, 0);
-            let sys = Interp::new(&scene).unwrap();
+            let (sys, mut s, pose, _) = posed_tree(&mut rng, n);
             let layout = sys.layout();
-            let mut s = natural(&sys);
-            let (pose, _) = random_state(&mut rng, n);
-            s.kinematics(&sys, &pose);
             // u = A q̇ for random q̇
             let solver = Solver { tree: &s.tree };
             let qd: Vec<f64> = (0..s.tree.ncoord).map(|_| rng.normal()).collect();
@@ -1684,11 +1681,7 @@ mod tests {
     #[test]
     fn tree_exact_preconditioner_converges_in_one_iteration() {
         let mut rng = Rng::new(3);
-        let scene = random_scene(&mut rng, 12, 0);
-        let sys = Interp::new(&scene).unwrap();
-        let mut s = natural(&sys);
-        let (pose, _) = random_state(&mut rng, 12);
-        s.kinematics(&sys, &pose);
+        let (_sys, mut s, _, _) = posed_tree(&mut rng, 12);
         let nc = s.tree.ncoord;
         let b: Vec<f64> = (0..nc).map(|_| rng.normal()).collect();
         let solver = Solver { tree: &s.tree };

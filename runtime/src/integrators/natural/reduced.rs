@@ -573,10 +573,9 @@ impl Solver<'_> {
     /// children are visited with their matrices and `f` writes the position's own into
     /// `out`. Within a branch the matrix passes to the parent (the previous entry) in a
     /// local; only a branch's first position, whose parent lies in another branch, stores
-    /// it in [`Node::pm`]. So a step neither reads nor writes 288 bytes per body of memory
-    /// for it (measured: per body cost at N = 10 000, docs/methods.md).
-    /// With `keep_all` every position stores its matrix (for a later sweep that reuses
-    /// them).
+    /// it in [`Node::pm`], so a step neither writes nor reads back 288 bytes per body for
+    /// it (BENCHMARKS.md, "Natural partitioning: scaling"). With `keep_all` every position
+    /// stores its matrix, for a later sweep that reuses them.
     #[inline]
     fn up_handing<F>(&self, nodes: &mut [Node], keep_all: bool, f: &F)
     where
