@@ -442,7 +442,11 @@ fn profile_natural() {
     let t = natural::with_threads(threads, || {
         time_method_with(&scene, &np(), steps, Clock::Wall)
     });
-    println!("{name} N={n}: {:.1} µs/step", t.per_step * 1e6);
+    println!(
+        "{name} N={n}: {:.1} µs/step, {:.2} gyroscopic iterations/step",
+        t.per_step * 1e6,
+        stat(&t, "gyro_iterations_mean")
+    );
 }
 
 /// Quick check of the scaling target: `NP_SCENE=tree8.mbd cargo test ... quick_ratio --
