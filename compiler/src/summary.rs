@@ -134,6 +134,9 @@ pub fn method_text(m: &MethodSpec) -> String {
                 v.push("paper_literal".into());
             }
             v.push(format!("lint {:?}", o.lint).to_lowercase());
+            if o.factorization != mbdc_runtime::scene::Factorization::Auto {
+                v.push(format!("factorization {:?}", o.factorization).to_lowercase());
+            }
             v
         }
         MethodSpec::Baumgarte { alpha, beta } => {

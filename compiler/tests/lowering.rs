@@ -61,6 +61,43 @@ fn units_convert_to_si() {
     );
 }
 
+/// `staggered { factorization ... }`: the three values lower, anything else is an error
+/// naming them.
+#[test]
+fn staggered_factorization_option() {
+    use mbdc_runtime::scene::{Factorization, StaggeredOptions};
+    let body = "body b { mass 1 kg; inertia sphere(radius: 1 cm) }";
+    let with = |m: &str| {
+        model(body).replace(
+            "simulate { duration 1 s; step 1 ms }",
+            &format!("simulate {{ duration 1 s; step 1 ms; method {m} }}"),
+        )
+    };
+    for (word, f) in [
+        ("auto", Factorization::Auto),
+        ("dense", Factorization::Dense),
+        ("sparse", Factorization::Sparse),
+    ] {
+        let s = scene(&with(&format!("staggered {{ factorization {word} }}")));
+        assert_eq!(
+            s.simulate.method,
+            MethodSpec::Staggered(StaggeredOptions {
+                factorization: f,
+                ..Default::default()
+            })
+        );
+    }
+    let e = errors(&with("staggered { factorization lu }"));
+    assert!(
+        e.iter()
+            .any(|(_, m)| m == "`factorization` is `auto`, `dense` or `sparse`"),
+        "{e:?}"
+    );
+    // an option of staggered only
+    let e = errors(&with("natural_partitioning { factorization dense }"));
+    assert!(!e.is_empty());
+}
+
 #[test]
 fn dimension_errors_name_the_units() {
     let e = errors(&model(

@@ -707,6 +707,24 @@ pub struct StaggeredOptions {
     /// How the gyroscopic term `ω × Jω` is evaluated in the two-stage update.
     #[serde(default)]
     pub gyroscopic: Gyroscopic,
+    /// Which factorization of the iteration matrix `E + h²BM⁻¹Bᵀ` the method uses.
+    #[serde(default)]
+    pub factorization: Factorization,
+}
+
+/// The factorization of the staggered method's iteration matrix `E + h²BM⁻¹Bᵀ` (one row per
+/// constraint row; see docs/methods.md).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Factorization {
+    /// Dense below 40 rows or above density 0.3, sparse otherwise (the measured crossover).
+    #[default]
+    Auto,
+    /// Always dense (`8 m²` bytes and `m³/3` operations per factorization for `m` rows):
+    /// the classic Lagrange-multiplier path, for comparisons. Refused above
+    /// [`crate::limits::MAX_DENSE_UNKNOWNS`] rows.
+    Dense,
+    /// Always sparse (supernodal Cholesky with a fill-reducing ordering).
+    Sparse,
 }
 
 /// Evaluation of the gyroscopic term in the staggered update (see docs/methods.md).
@@ -744,6 +762,7 @@ impl Default for StaggeredOptions {
             paper_literal: false,
             lint: LintForm::Exact,
             gyroscopic: Gyroscopic::Midpoint,
+            factorization: Factorization::Auto,
         }
     }
 }

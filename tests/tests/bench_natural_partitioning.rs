@@ -19,7 +19,7 @@ use std::time::Instant;
 use mbdc_runtime::integrators::natural::{self, reduced::Precond, Natural};
 use mbdc_runtime::integrators::{self, Integrator, State};
 use mbdc_runtime::interp::Interp;
-use mbdc_runtime::scene::{MethodSpec, Scene};
+use mbdc_runtime::scene::{Factorization, MethodSpec, Scene, StaggeredOptions};
 use mbdc_runtime::system::{ConstraintEval, Need, System};
 
 struct Counting;
@@ -262,28 +262,7 @@ fn bench_natural_partitioning() {
     }
 
     // 2. Against the Lagrange-multiplier staggered method at N = 100.
-    println!("\n## N = 100: natural_partitioning against staggered (1 thread)\n");
-    println!("| scene | bodies | natural µs/step | staggered µs/step | staggered / natural |");
-    println!("|---|---|---|---|---|");
-    for name in ["chain_planar.mbd", "chain_spatial.mbd", "tree8.mbd"] {
-        let scene = load(name, "N", 100);
-        let nb = scene.bodies.len();
-        let (a, b) = natural::with_threads(1, || {
-            let a = time_method(&scene, &np(), steps_for(nb));
-            let b = time_method(
-                &scene,
-                &MethodSpec::default_for("staggered").unwrap(),
-                steps_for(nb) / 4,
-            );
-            (a, b)
-        });
-        println!(
-            "| {name} | {nb} | {:.1} | {:.1} | {:.1} |",
-            a.per_step * 1e6,
-            b.per_step * 1e6,
-            b.per_step / a.per_step
-        );
-    }
+    against_staggered_table();
 
     // 3. Two threads against one.
     println!("\n## Threads: two against one\n");
@@ -447,6 +426,52 @@ fn profile_natural() {
         t.per_step * 1e6,
         stat(&t, "gyro_iterations_mean")
     );
+}
+
+/// At N = 100, `natural_partitioning` against the Lagrange-multiplier `staggered` method
+/// with its default (sparse at this size) and with its dense factorization of
+/// `E + h²BM⁻¹Bᵀ` (`factorization dense`), one thread, interleaved.
+fn against_staggered_table() {
+    println!("\n## N = 100: natural_partitioning against staggered (1 thread)\n");
+    println!("| scene | bodies | rows | natural µs/step | staggered (sparse) µs/step | staggered (dense) µs/step | sparse / natural | dense / natural |");
+    println!("|---|---|---|---|---|---|---|---|");
+    let stag = |f: Factorization| {
+        MethodSpec::Staggered(StaggeredOptions {
+            factorization: f,
+            ..Default::default()
+        })
+    };
+    for name in ["chain_planar.mbd", "chain_spatial.mbd", "tree8.mbd"] {
+        let scene = load(name, "N", 100);
+        let nb = scene.bodies.len();
+        let rows = Interp::new(&scene).unwrap().layout().rows;
+        let (mut a, mut b, mut c) = (f64::INFINITY, f64::INFINITY, f64::INFINITY);
+        natural::with_threads(1, || {
+            for _ in 0..3 {
+                a = a.min(time_method(&scene, &np(), steps_for(nb)).per_step);
+                let sparse = stag(Factorization::Sparse);
+                b = b.min(time_method(&scene, &sparse, steps_for(nb) / 4).per_step);
+                let dense = stag(Factorization::Dense);
+                c = c.min(time_method(&scene, &dense, steps_for(nb) / 8).per_step);
+            }
+        });
+        println!(
+            "| {name} | {nb} | {rows} | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} |",
+            a * 1e6,
+            b * 1e6,
+            c * 1e6,
+            b / a,
+            c / a
+        );
+    }
+}
+
+/// Just the table against `staggered`: `cargo test -p mbdc-tests --test
+/// bench_natural_partitioning -- --ignored --nocapture against_staggered`.
+#[test]
+#[ignore]
+fn against_staggered() {
+    against_staggered_table();
 }
 
 /// Quick check of the scaling target: `NP_SCENE=tree8.mbd cargo test ... quick_ratio --

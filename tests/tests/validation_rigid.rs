@@ -274,3 +274,65 @@ fn slider_crank_kinematics() {
     eprintln!("slider position error {worst:.2e} m");
     assert!(worst < 1e-9, "{worst}");
 }
+
+/// The spatial chain of models/bench with `n` links.
+fn spatial_chain(n: usize) -> mbdc_runtime::scene::Scene {
+    let o: mbdc_compiler::Override = format!("N={n}").parse().unwrap();
+    mbdc_compiler::load_file(model_path("bench/chain_spatial.mbd"), &[o])
+        .scene
+        .expect("the chain lowers")
+}
+
+/// `staggered { factorization dense }` and `sparse` solve the same iteration matrix
+/// `E + h²BM⁻¹Bᵀ` (60 rows here, where `auto` picks sparse). Reference: each other; the two
+/// factorizations differ in the order of their operations only, so the trajectories must
+/// agree to round-off amplified by the steps (measured 1.3e-15 m after 2000 steps; tolerance
+/// 1e-12 m, the chain being 2 m long).
+#[test]
+fn staggered_dense_and_sparse_factorizations_agree() {
+    use mbdc_runtime::scene::Factorization;
+    let scene = spatial_chain(20);
+    let run = |f: Factorization| {
+        let m = MethodSpec::Staggered(StaggeredOptions {
+            factorization: f,
+            ..Default::default()
+        });
+        let t = simulate(&scene, m, 1e-4, 0.2, 2000);
+        assert!(t.report.failure.is_none(), "{f:?}: {:?}", t.report.failure);
+        t
+    };
+    let (d, s) = (run(Factorization::Dense), run(Factorization::Sparse));
+    let (a, b) = (d.frames.last().unwrap(), s.frames.last().unwrap());
+    assert!((a.t - 0.2).abs() < 1e-9 && (b.t - 0.2).abs() < 1e-9);
+    let diff = position_difference(a, b);
+    assert!(diff < 1e-12, "dense and sparse differ by {diff:e} m");
+    // and the chain moved (the comparison is not between two resting chains)
+    let moved = position_difference(a, &d.frames[0]);
+    assert!(moved > 1e-3, "the chain moved {moved:e} m");
+}
+
+/// A dense factorization of more rows than `MAX_DENSE_UNKNOWNS` is refused up front, with
+/// the row count and the way out in the message, rather than allocating 8 m² bytes.
+#[test]
+fn dense_factorization_is_refused_on_large_scenes() {
+    use mbdc_runtime::integrators::{self, State};
+    use mbdc_runtime::interp::Interp;
+    use mbdc_runtime::scene::Factorization;
+    let scene = spatial_chain(1400);
+    let sys = Interp::new(&scene).unwrap();
+    let m = MethodSpec::Staggered(StaggeredOptions {
+        factorization: Factorization::Dense,
+        ..Default::default()
+    });
+    let Err(e) = integrators::make(&m, &sys, 1e-4, &State::initial(&sys)) else {
+        panic!("a dense factorization of 4200 rows was accepted");
+    };
+    let msg = e.to_string();
+    assert!(
+        msg.contains("4200 rows") && msg.contains("factorization dense") && msg.contains("sparse"),
+        "{msg}"
+    );
+    // the default picks the sparse factorization and starts
+    let ok = MethodSpec::Staggered(StaggeredOptions::default());
+    assert!(integrators::make(&ok, &sys, 1e-4, &State::initial(&sys)).is_ok());
+}

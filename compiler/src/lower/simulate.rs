@@ -2,8 +2,8 @@
 
 use mbdc_dsl::ast::{Expr, ItemKind};
 use mbdc_runtime::scene::{
-    BodyReference, Fn1, Gyroscopic, LintForm, MethodSpec, OutputSpec, Reference, Simulate,
-    StaggeredOptions,
+    BodyReference, Factorization, Fn1, Gyroscopic, LintForm, MethodSpec, OutputSpec, Reference,
+    Simulate, StaggeredOptions,
 };
 
 use super::body::num;
@@ -34,6 +34,7 @@ pub(crate) fn method_options(name: &str) -> &'static [&'static str] {
             "paper_literal",
             "lint",
             "gyroscopic",
+            "factorization",
         ],
         "baumgarte" => &["alpha", "beta"],
         "penalty" => &["epsilon"],
@@ -341,6 +342,22 @@ impl<'a> Lowerer<'a> {
                             Diagnostic::error(
                                 codes::WRONG_KIND,
                                 "`gyroscopic` is `midpoint`, `synchronous` or `lagged`",
+                            )
+                            .primary(sc.file, v.span, ""),
+                        ))
+                    }
+                };
+            }
+            (MethodSpec::Staggered(o), "factorization") => {
+                o.factorization = match ident_of(v) {
+                    Some("auto") => Factorization::Auto,
+                    Some("dense") => Factorization::Dense,
+                    Some("sparse") => Factorization::Sparse,
+                    _ => {
+                        return Err(self.report(
+                            Diagnostic::error(
+                                codes::WRONG_KIND,
+                                "`factorization` is `auto`, `dense` or `sparse`",
                             )
                             .primary(sc.file, v.span, ""),
                         ))

@@ -65,8 +65,8 @@ impl State {
 ///
 /// Refused up front ([`StartError::Invalid`]): a step that is not positive and finite,
 /// options out of range ([`crate::limits::check_method`]), and a dense method
-/// (`coordinate_partitioning`, `implicit_trapezoid`) on a system of more than
-/// [`crate::limits::MAX_DENSE_UNKNOWNS`] unknowns.
+/// (`coordinate_partitioning`, `implicit_trapezoid`, `staggered` with `factorization
+/// dense`) on a system of more than [`crate::limits::MAX_DENSE_UNKNOWNS`] unknowns.
 pub fn make<'a, S: System + 'a>(
     method: &crate::scene::MethodSpec,
     sys: &S,
@@ -92,6 +92,17 @@ pub fn make<'a, S: System + 'a>(
                 "{} is a dense method and this system has {n} unknowns (6 per body and {} constraint rows), more than its limit of {}: use staggered or natural_partitioning",
                 method.name(),
                 l.rows,
+                limits::MAX_DENSE_UNKNOWNS
+            )));
+        }
+    }
+    if let M::Staggered(o) = method {
+        let rows = sys.layout().rows;
+        if o.factorization == crate::scene::Factorization::Dense
+            && rows > limits::MAX_DENSE_UNKNOWNS
+        {
+            return Err(StartError::Invalid(format!(
+                "staggered with `factorization dense` factors a dense matrix of one row and column per constraint row, and this system has {rows} rows, more than the limit of {}: use `factorization auto` (the default) or `sparse`",
                 limits::MAX_DENSE_UNKNOWNS
             )));
         }

@@ -88,7 +88,7 @@ use super::common::{self, accel, b_minv, b_times, bt_lambda, qbar, Index1};
 use super::{Integrator, StartError, State, StepError, StepInfo};
 use crate::linalg::{Backend, Definiteness, KSolver, KSolverOptions, LinalgError};
 use crate::math::cayley_update;
-use crate::scene::{Gyroscopic, LintForm, StaggeredOptions};
+use crate::scene::{Factorization, Gyroscopic, LintForm, StaggeredOptions};
 use crate::system::{ConstraintEval, Need, Pose, RowKind, System, Twist, Wrench};
 
 /// One leapfrog sequence.
@@ -190,6 +190,11 @@ impl TwoStage {
             lint: opts.lint,
             gyroscopic,
         };
+        let backend = match opts.factorization {
+            Factorization::Auto => Backend::Auto,
+            Factorization::Dense => Backend::Dense,
+            Factorization::Sparse => Backend::Sparse,
+        };
         TwoStage::new(
             sys,
             h,
@@ -197,6 +202,7 @@ impl TwoStage {
             "staggered",
             opts.epsilon,
             opts.paper_literal,
+            backend,
             start,
         )
     }
@@ -216,6 +222,7 @@ impl TwoStage {
             "baumgarte",
             None,
             false,
+            Backend::Auto,
             start,
         )
     }
@@ -227,7 +234,16 @@ impl TwoStage {
         epsilon: Option<f64>,
         start: &State,
     ) -> Result<TwoStage, StartError> {
-        TwoStage::new(sys, h, Law::Penalty, "penalty", epsilon, false, start)
+        TwoStage::new(
+            sys,
+            h,
+            Law::Penalty,
+            "penalty",
+            epsilon,
+            false,
+            Backend::Auto,
+            start,
+        )
     }
 
     #[allow(clippy::too_many_arguments)]
@@ -238,6 +254,7 @@ impl TwoStage {
         name: &'static str,
         epsilon: Option<f64>,
         paper_literal: bool,
+        backend: Backend,
         start: &State,
     ) -> Result<TwoStage, StartError> {
         let layout = sys.layout();
@@ -260,7 +277,7 @@ impl TwoStage {
         let mut ks = KSolver::new(
             layout,
             KSolverOptions {
-                backend: Backend::Auto,
+                backend,
                 definiteness: Definiteness::Positive,
             },
         )?;
