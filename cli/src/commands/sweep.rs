@@ -50,7 +50,7 @@ use std::process::ExitCode;
 
 use mbdc_compiler::Override;
 use mbdc_runtime::integrators::{self, StartError, State};
-use mbdc_runtime::scene::{LintForm, MethodSpec, Scene};
+use mbdc_runtime::scene::{Factorization, LintForm, MethodSpec, Scene};
 
 use reference::{Errors, RefSolution};
 use runner::{CompiledRunner, InterpRunner, Outcome, Request, Runner, Status, Track};
@@ -215,6 +215,11 @@ pub fn describe_options(spec: &MethodSpec) -> String {
             }
             if o.paper_literal {
                 s.push_str(", paper-literal formulas");
+            }
+            match o.factorization {
+                Factorization::Auto => {}
+                Factorization::Dense => s.push_str(", dense factorization"),
+                Factorization::Sparse => s.push_str(", sparse factorization"),
             }
             s
         }
