@@ -13,7 +13,17 @@ pub fn model_path(name: &str) -> String {
 
 /// Lower a model file (panics with the rendered diagnostics if it has errors).
 pub fn load_model(name: &str) -> Scene {
-    let loaded = mbdc_compiler::load_file(model_path(name), &[]);
+    load_model_with(name, &[])
+}
+
+/// Lower a model file with parameter overrides such as `"N=20"` (panics with the rendered
+/// diagnostics if it has errors).
+pub fn load_model_with(name: &str, set: &[&str]) -> Scene {
+    let set: Vec<mbdc_compiler::Override> = set
+        .iter()
+        .map(|s| s.parse().expect("an override `name=value`"))
+        .collect();
+    let loaded = mbdc_compiler::load_file(model_path(name), &set);
     match loaded.scene {
         Some(s) => s,
         None => panic!(

@@ -77,13 +77,8 @@ enum Clock {
 }
 
 fn load(name: &str, param: &str, n: usize) -> Scene {
-    let path = format!("{}/../models/bench/{name}", env!("CARGO_MANIFEST_DIR"));
-    let o: mbdc_compiler::Override = format!("{param}={n}").parse().unwrap();
-    let loaded = mbdc_compiler::load_file(&path, &[o]);
-    let mut scene = match loaded.scene {
-        Some(s) => s,
-        None => panic!("{name}: {}", loaded.render_plain()),
-    };
+    let mut scene =
+        mbdc_tests::load_model_with(&format!("bench/{name}"), &[&format!("{param}={n}")]);
     // The chains turn about z at 1 rad/s; the tension grows like N², and in a 1 km chain
     // (N = 10000) it puts the fastest mode of the links near the root past the explicit
     // limit at the scenes' h = 0.1 ms (h·ω ≈ 2.4: the run blows up within 20 steps). Above

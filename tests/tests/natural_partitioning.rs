@@ -9,15 +9,9 @@
 //! - A ladder of 20 four-bar loops stays closed (cut-joint rows below 1e-9 m over 1 s).
 
 use mbdc_runtime::scene::Scene;
-use mbdc_tests::{load_model, method, position_difference, simulate, top, Trajectory};
-
-fn load_with(path: &str, set: &str) -> Scene {
-    let path = format!("{}/../models/{path}", env!("CARGO_MANIFEST_DIR"));
-    let o: mbdc_compiler::Override = set.parse().unwrap();
-    mbdc_compiler::load_file(&path, &[o])
-        .scene
-        .expect("the scene lowers")
-}
+use mbdc_tests::{
+    load_model, load_model_with, method, position_difference, simulate, top, Trajectory,
+};
 
 /// Duration and coarsest step of the comparison for each model (our choice: long enough
 /// to exercise the model's hard part, short enough for CI), and the duration of the
@@ -137,7 +131,7 @@ fn tree_violation_stays_below_1e_10_on_the_double_pendulum() {
 
 #[test]
 fn tree_violation_stays_below_1e_10_on_a_100_link_chain() {
-    let scene = load_with("bench/chain_spatial.mbd", "N=100");
+    let scene = load_model_with("bench/chain_spatial.mbd", &["N=100"]);
     assert_eq!(scene.bodies.len(), 100);
     let v = tree_violation_over_10_s(&scene, 5e-4);
     eprintln!("100-link chain: max tree violation over 10 s {v:.2e}");
@@ -146,7 +140,7 @@ fn tree_violation_stays_below_1e_10_on_a_100_link_chain() {
 
 #[test]
 fn a_ladder_of_20_loops_stays_closed() {
-    let scene = load_with("bench/ladder.mbd", "K=20");
+    let scene = load_model_with("bench/ladder.mbd", &["K=20"]);
     assert_eq!(scene.bodies.len(), 60);
     let t = simulate(&scene, method("natural_partitioning"), 1e-4, 1.0, 100);
     finished("ladder", "natural_partitioning", 1e-4, &t);

@@ -277,10 +277,7 @@ fn slider_crank_kinematics() {
 
 /// The spatial chain of models/bench with `n` links.
 fn spatial_chain(n: usize) -> mbdc_runtime::scene::Scene {
-    let o: mbdc_compiler::Override = format!("N={n}").parse().unwrap();
-    mbdc_compiler::load_file(model_path("bench/chain_spatial.mbd"), &[o])
-        .scene
-        .expect("the chain lowers")
+    load_model_with("bench/chain_spatial.mbd", &[&format!("N={n}")])
 }
 
 /// `staggered { factorization dense }` and `sparse` solve the same iteration matrix

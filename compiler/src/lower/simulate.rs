@@ -308,22 +308,40 @@ impl<'a> Lowerer<'a> {
         }
     }
 
+    /// A method option that is one of a few words: the value of the word `v` names, or an
+    /// error at `v` listing the words ("`option` is `a`, `b` or `c`").
+    fn keyword<T: Copy>(
+        &mut self,
+        v: &Expr,
+        sc: &Scope,
+        option: &str,
+        words: &[(&str, T)],
+    ) -> R<T> {
+        if let Some(&(_, t)) = ident_of(v).and_then(|w| words.iter().find(|(k, _)| *k == w)) {
+            return Ok(t);
+        }
+        let list: Vec<String> = words.iter().map(|(k, _)| format!("`{k}`")).collect();
+        let (last, rest) = list.split_last().expect("at least one word");
+        let msg = if rest.is_empty() {
+            format!("`{option}` is {last}")
+        } else {
+            format!("`{option}` is {} or {last}", rest.join(", "))
+        };
+        Err(self.report(Diagnostic::error(codes::WRONG_KIND, msg).primary(sc.file, v.span, "")))
+    }
+
     fn set_option(&mut self, spec: &mut MethodSpec, k: &str, v: &Expr, sc: &Scope) -> R<()> {
         match (spec, k) {
             (MethodSpec::Staggered(o), "epsilon") => o.epsilon = Some(self.epsilon(v, sc)?),
             (MethodSpec::Staggered(o), "single_stage") => o.single_stage = self.boolean(v, sc)?,
             (MethodSpec::Staggered(o), "paper_literal") => o.paper_literal = self.boolean(v, sc)?,
             (MethodSpec::Staggered(o), "lint") => {
-                o.lint = match ident_of(v) {
-                    Some("exact") => LintForm::Exact,
-                    Some("midpoint") => LintForm::Midpoint,
-                    _ => {
-                        return Err(self.report(
-                            Diagnostic::error(codes::WRONG_KIND, "`lint` is `exact` or `midpoint`")
-                                .primary(sc.file, v.span, ""),
-                        ))
-                    }
-                }
+                o.lint = self.keyword(
+                    v,
+                    sc,
+                    "lint",
+                    &[("exact", LintForm::Exact), ("midpoint", LintForm::Midpoint)],
+                )?
             }
             (MethodSpec::Baumgarte { alpha, .. }, "alpha") => {
                 *alpha = self.nonneg(v, sc, Dim::FREQUENCY, "alpha")?
@@ -333,36 +351,28 @@ impl<'a> Lowerer<'a> {
             }
             (MethodSpec::Penalty { epsilon }, "epsilon") => *epsilon = Some(self.epsilon(v, sc)?),
             (MethodSpec::Staggered(o), "gyroscopic") => {
-                o.gyroscopic = match ident_of(v) {
-                    Some("midpoint") => Gyroscopic::Midpoint,
-                    Some("synchronous") => Gyroscopic::Synchronous,
-                    Some("lagged") => Gyroscopic::Lagged,
-                    _ => {
-                        return Err(self.report(
-                            Diagnostic::error(
-                                codes::WRONG_KIND,
-                                "`gyroscopic` is `midpoint`, `synchronous` or `lagged`",
-                            )
-                            .primary(sc.file, v.span, ""),
-                        ))
-                    }
-                };
+                o.gyroscopic = self.keyword(
+                    v,
+                    sc,
+                    "gyroscopic",
+                    &[
+                        ("midpoint", Gyroscopic::Midpoint),
+                        ("synchronous", Gyroscopic::Synchronous),
+                        ("lagged", Gyroscopic::Lagged),
+                    ],
+                )?
             }
             (MethodSpec::Staggered(o), "factorization") => {
-                o.factorization = match ident_of(v) {
-                    Some("auto") => Factorization::Auto,
-                    Some("dense") => Factorization::Dense,
-                    Some("sparse") => Factorization::Sparse,
-                    _ => {
-                        return Err(self.report(
-                            Diagnostic::error(
-                                codes::WRONG_KIND,
-                                "`factorization` is `auto`, `dense` or `sparse`",
-                            )
-                            .primary(sc.file, v.span, ""),
-                        ))
-                    }
-                };
+                o.factorization = self.keyword(
+                    v,
+                    sc,
+                    "factorization",
+                    &[
+                        ("auto", Factorization::Auto),
+                        ("dense", Factorization::Dense),
+                        ("sparse", Factorization::Sparse),
+                    ],
+                )?
             }
             (MethodSpec::NaturalPartitioning { epsilon, .. }, "epsilon") => {
                 *epsilon = Some(self.epsilon(v, sc)?)
