@@ -34,7 +34,7 @@ use mbdc_compiler::codegen::{self, Options, SceneJson};
 use mbdc_runtime::app::PROTOCOL;
 use mbdc_runtime::compiled::Fnv;
 use mbdc_runtime::output::Summary;
-use mbdc_runtime::run::Observer;
+use mbdc_runtime::run_loop::Observer;
 use mbdc_runtime::scene::Scene;
 
 use crate::commands::run::{print_summary, Args, FailurePolicy, Progress};

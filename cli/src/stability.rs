@@ -1,12 +1,12 @@
 //! The stability gate of `mbdc run` and `mbdc sweep`: before a run, compare the step with the
-//! scene's stability estimate ([`mbdc_runtime::stability`]) and refuse an explicit method whose
+//! scene's stability estimate ([`mbdc_runtime::step_limits`]) and refuse an explicit method whose
 //! step is above the limit `h·ω_max ≤ 2`, or warn when there are fewer than 20 steps per period
 //! of the fastest motion (notes A §1.10).
 
 use std::process::ExitCode;
 
 use mbdc_runtime::scene::{MethodSpec, Scene};
-use mbdc_runtime::stability;
+use mbdc_runtime::step_limits;
 
 /// What the gate decided.
 #[derive(Debug, PartialEq)]
@@ -21,12 +21,12 @@ pub enum Verdict {
 
 /// Judge step `h` with `method` on `scene`.
 pub fn judge(scene: &Scene, method: &MethodSpec, h: f64) -> Verdict {
-    let est = stability::estimate(scene);
+    let est = step_limits::estimate(scene);
     let Some(fast) = est.fastest() else {
         return Verdict::Ok;
     };
     let (stable, accurate) = (est.stable_step(), est.accurate_step());
-    if stability::is_explicit(method) && h > stable {
+    if step_limits::is_explicit(method) && h > stable {
         return Verdict::Refuse(format!(
             "the step {h:.3e} s is above the stability limit of the explicit method `{}`: the fastest motion is the {} at ω = {:.4e} rad/s, and h·ω = {:.2} > 2\n  help: use a step of at most {stable:.3e} s (20 steps per period: {accurate:.3e} s), or `--method implicit_trapezoid`, which has no stability limit; `--force` runs anyway",
             method.name(),

@@ -11,7 +11,7 @@
 //!
 //! fn main() {
 //!     let model = pendulum::Model::new(); // a `System`
-//!     // run it: mbdc_runtime::run::run(&model, &config, &mut observer)
+//!     // run it: mbdc_runtime::run_loop::run(&model, &config, &mut observer)
 //! }
 //! ```
 //!

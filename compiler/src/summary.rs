@@ -268,7 +268,7 @@ pub fn summary(scene: &Scene) -> CheckSummary {
         nonholonomic_rows,
         dof: 6 * scene.bodies.len() as i64 - holonomic_rows as i64,
         jacobian_rank: check.as_ref().map(|c| c.rank),
-        effects: scene.effects().names(),
+        effects: mbdc_runtime::effects::Effects::of(scene).names(),
         forces,
         contacts: scene.contacts.iter().map(|c| c.name.clone()).collect(),
         beams: scene

@@ -7,7 +7,7 @@
 use std::time::Instant;
 
 use mbdc_runtime::interp::Interp;
-use mbdc_runtime::run::{self, Frame, Observer, OnFailure, RunConfig, Watchdog};
+use mbdc_runtime::run_loop::{self, Frame, Observer, OnFailure, RunConfig, Watchdog};
 use mbdc_runtime::scene::MethodSpec;
 use mbdc_tests::{load_model, method};
 
@@ -44,7 +44,7 @@ fn main() {
                     watchdog: Watchdog::for_scale(1.0, true),
                 };
                 let t0 = Instant::now();
-                let r = run::run(&sys, &cfg, &mut Quiet);
+                let r = run_loop::run(&sys, &cfg, &mut Quiet);
                 let dt = t0.elapsed().as_secs_f64();
                 if let Some(f) = r.failure {
                     failed[k] = Some(f.cause);

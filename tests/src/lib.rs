@@ -2,7 +2,7 @@
 //! and keep every output frame for checks against closed forms and papers.
 
 use mbdc_runtime::interp::Interp;
-use mbdc_runtime::run::{self, Frame, Observer, OnFailure, RunConfig, RunReport, Watchdog};
+use mbdc_runtime::run_loop::{self, Frame, Observer, OnFailure, RunConfig, RunReport, Watchdog};
 use mbdc_runtime::scene::{MethodSpec, Scene};
 use mbdc_runtime::system::{Pose, Twist};
 
@@ -150,10 +150,10 @@ pub fn simulate(
         method,
         every,
         on_failure: OnFailure::Stop,
-        watchdog: Watchdog::for_scale(run::length_scale(&sys), true),
+        watchdog: Watchdog::for_scale(run_loop::length_scale(&sys), true),
     };
     let mut rec = Recorder(Vec::new());
-    let report = run::run(&sys, &cfg, &mut rec);
+    let report = run_loop::run(&sys, &cfg, &mut rec);
     Trajectory {
         frames: rec.0,
         report,

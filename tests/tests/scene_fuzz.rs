@@ -41,12 +41,12 @@ use mbdc_runtime::app::{self, Settings};
 use mbdc_runtime::compiled::{self, CompiledError, Mode, Plan};
 use mbdc_runtime::integrators::{self, State};
 use mbdc_runtime::interp::{Interp, InterpError};
-use mbdc_runtime::run::{self, Frame, Observer, OnFailure, RunConfig, Watchdog};
+use mbdc_runtime::run_loop::{self, Frame, Observer, OnFailure, RunConfig, Watchdog};
 use mbdc_runtime::scene::{
     Attachment, Body, BodyRef, Fn1, ForceKind, Joint, JointKind, MethodSpec, Scene, Shape,
 };
 use mbdc_runtime::system::System;
-use mbdc_runtime::{assemble, stability, topology};
+use mbdc_runtime::{assemble, step_limits, topology};
 use proptest::prelude::*;
 use proptest::test_runner::{Config, TestCaseError, TestRunner};
 use serde_json::Value;
@@ -1132,9 +1132,9 @@ fn check_scene(scene: &Scene, key: Option<(u64, u64)>, run: bool) -> Result<(), 
         );
     }
     // what runs on an accepted scene
-    let _ = scene.effects();
+    let _ = mbdc_runtime::effects::Effects::of(scene);
     let _ = topology::Topology::new(scene);
-    let est = stability::estimate(scene);
+    let est = step_limits::estimate(scene);
     let _ = (est.stable_step(), est.accurate_step());
     for mode in [Mode::Unrolled, Mode::Tables] {
         let plan = Plan::new(scene, mode);
@@ -1175,9 +1175,9 @@ fn check_scene(scene: &Scene, key: Option<(u64, u64)>, run: bool) -> Result<(), 
             method: method.clone(),
             every: 1,
             on_failure: OnFailure::HalveStep(1),
-            watchdog: Watchdog::for_scale(run::length_scale(&sys), true),
+            watchdog: Watchdog::for_scale(run_loop::length_scale(&sys), true),
         };
-        let report = bounded(method.name(), || run::run(&sys, &cfg, &mut Quiet))?;
+        let report = bounded(method.name(), || run_loop::run(&sys, &cfg, &mut Quiet))?;
         prop_assert!(report.steps <= 8, "{} steps for a run of 3", report.steps);
         prop_assert!(report.finished || report.failure.is_some());
     }
@@ -1360,9 +1360,9 @@ fn a_large_scene_is_refused_by_dense_methods_and_run_by_sparse_ones() {
             method: MethodSpec::default_for(name).unwrap(),
             every: 1,
             on_failure: OnFailure::Stop,
-            watchdog: Watchdog::for_scale(run::length_scale(&sys), false),
+            watchdog: Watchdog::for_scale(run_loop::length_scale(&sys), false),
         };
-        let r = bounded(name, || run::run(&sys, &cfg, &mut Quiet)).unwrap();
+        let r = bounded(name, || run_loop::run(&sys, &cfg, &mut Quiet)).unwrap();
         assert!(r.finished, "{name}: {:?}", r.failure);
     }
 }
@@ -1371,9 +1371,9 @@ fn a_large_scene_is_refused_by_dense_methods_and_run_by_sparse_ones() {
 /// `Interp::new` before it allocates anything per item.
 #[test]
 fn absurd_sizes_are_refused_up_front() {
-    use mbdc_runtime::limits;
+    use mbdc_runtime::input_limits;
     let mut s = chain(1);
-    s.bodies = vec![body("b", 0.0); limits::MAX_BODIES + 1];
+    s.bodies = vec![body("b", 0.0); input_limits::MAX_BODIES + 1];
     let e = bounded("Interp::new", || {
         let base = LIVE.load(Ordering::Relaxed);
         let r = Interp::new(&s);
@@ -1387,7 +1387,7 @@ fn absurd_sizes_are_refused_up_front() {
     // a driver nested deeper than the limit
     let mut s = chain(1);
     let mut f = Fn1::Var;
-    for _ in 0..limits::MAX_FN_DEPTH + 1 {
+    for _ in 0..input_limits::MAX_FN_DEPTH + 1 {
         f = Fn1::Neg(Box::new(f));
     }
     s.forces.push(mbdc_runtime::scene::Force {
@@ -1444,7 +1444,7 @@ fn bad_steps_and_durations_are_refused() {
             on_failure: OnFailure::HalveStep(3),
             watchdog: Watchdog::for_scale(1.0, false),
         };
-        let r = run::run(&sys, &cfg, &mut Quiet);
+        let r = run_loop::run(&sys, &cfg, &mut Quiet);
         assert!(
             !r.finished && r.steps == 0,
             "step {step}, duration {duration}: {r:?}"

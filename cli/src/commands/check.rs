@@ -61,7 +61,7 @@ pub fn run(args: Args) -> ExitCode {
     let summary = mbdc_compiler::summary(scene);
     print!("{summary}");
     if args.effects {
-        let e = scene.effects();
+        let e = mbdc_runtime::effects::Effects::of(scene);
         println!("effects:");
         let names = e.names();
         for n in [
@@ -90,7 +90,7 @@ pub fn run(args: Args) -> ExitCode {
         print!("{}", topo.render(scene));
         print!(
             "{}",
-            mbdc_runtime::integrators::natural::tree::coordinates_report(scene, &topo)
+            mbdc_runtime::coordinates::coordinates_report(scene, &topo)
         );
     }
     if !loaded.diagnostics.is_empty() {

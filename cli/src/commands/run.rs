@@ -18,7 +18,7 @@ use mbdc_compiler::Override;
 use mbdc_runtime::app::Settings;
 use mbdc_runtime::interp::Interp;
 use mbdc_runtime::output::{RunMeta, Summary};
-use mbdc_runtime::run::{self, Frame, Observer, RunConfig};
+use mbdc_runtime::run_loop::{self, Frame, Observer, RunConfig};
 use mbdc_runtime::scene::{MethodSpec, Scene};
 use mbdc_runtime::system::System;
 
@@ -252,7 +252,7 @@ pub fn simulate<S: System>(sys: &S, scene: &Scene, args: &Args) -> ExitCode {
         duration: cfg.duration,
     };
     let mut progress = Progress::new(cfg.duration, args.quiet);
-    let result = run::run_to_dir(sys, &cfg, meta, &scene.simulate.output, &dir, &mut progress);
+    let result = run_loop::run_to_dir(sys, &cfg, meta, &scene.simulate.output, &dir, &mut progress);
     progress.finish();
     let code = match result {
         Ok((report, summary)) => {

@@ -484,7 +484,7 @@ pub fn sweep(args: &Args, scene: &Scene) -> Result<SweepResult, String> {
         return Err("--reference-refine must be at least 2".into());
     }
     let probe = InterpRunner::new(scene)?;
-    let length_scale = mbdc_runtime::run::length_scale(probe.system());
+    let length_scale = mbdc_runtime::run_loop::length_scale(probe.system());
     let estimate = stability::estimate(scene);
 
     // steps
@@ -623,7 +623,7 @@ pub fn sweep(args: &Args, scene: &Scene) -> Result<SweepResult, String> {
             ceiling: 0.1 * scale,
             h_limit: estimate
                 .as_ref()
-                .filter(|_| mbdc_runtime::stability::is_explicit(spec))
+                .filter(|_| mbdc_runtime::step_limits::is_explicit(spec))
                 .map(|e| e.h_limit()),
         }
     };

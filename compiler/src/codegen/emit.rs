@@ -1,9 +1,8 @@
 //! The token emitter behind [`super::generate`].
 
-use mbdc_runtime::compiled::{
-    JointCombo, Kernel, Mode, Plan, Spec, TermCombo, TermKind, UJoint, UTerm,
-};
+use mbdc_runtime::compiled::{JointCombo, Mode, Plan, Spec, TermCombo, TermKind, UJoint, UTerm};
 use mbdc_runtime::scene::{ForceFrame, Scene};
+use mbdc_runtime::system::JointKernel;
 use proc_macro2::{Literal, TokenStream};
 use quote::{format_ident, quote};
 
@@ -140,19 +139,19 @@ fn joint_call(
     let f = format_ident!("{}", combo.kernel.function());
     let (c, t) = offsets;
     match combo.kernel {
-        Kernel::DriveAngle | Kernel::DriveDisplacement => {
+        JointKernel::DriveAngle | JointKernel::DriveDisplacement => {
             let v = &cx.calls(&combo.fns, quote!(t), &c, &t, fixed)[0];
             quote!(joints::#f(#geom, #v, #pa, #pb, #ta, #tb, need, #o);)
         }
-        Kernel::PointVelocity => {
+        JointKernel::PointVelocity => {
             let v = cx.calls(&combo.fns, quote!(t), &c, &t, fixed);
             quote!(joints::#f(#geom, [#(#v),*], #pa, #pb, #ta, #tb, need, #o);)
         }
-        Kernel::Curve => {
+        JointKernel::Curve => {
             let v = &cx.calls(&combo.fns, quote!(x), &c, &t, fixed)[0];
             quote!(joints::#f(#geom, |x| #v, #pa, #pb, #ta, #tb, need, #o);)
         }
-        Kernel::Lock => {
+        JointKernel::Lock => {
             quote!(joints::#f(#geom, Jet2::constant(#lock_angle), #pa, #pb, #ta, #tb, need, #o);)
         }
         _ => quote!(joints::#f(#geom, #pa, #pb, #ta, #tb, need, #o);),
@@ -292,7 +291,7 @@ pub fn file(
     let has_forces = spec.gravity || spec.locks || !spec.terms.is_empty();
     let uses_vec3 =
         spec.gravity || spec.has_term(TermKind::Point) || spec.has_term(TermKind::Torque);
-    let uses_jet = has_fns || spec.has_kernel(Kernel::Lock);
+    let uses_jet = has_fns || spec.has_kernel(JointKernel::Lock);
 
     // ---- docs
     let eff = if effects.is_empty() {
@@ -312,7 +311,7 @@ pub fn file(
             plan.key()
         ),
         String::new(),
-        " [`Model`] implements `System`: run it with `mbdc_runtime::run` or any integrator."
+        " [`Model`] implements `System`: run it with `mbdc_runtime::run_loop` or any integrator."
             .to_string(),
     ];
 
@@ -649,16 +648,11 @@ pub fn file(
     } else {
         quote!()
     };
-    let tree_kind = |k: Kernel| -> Option<TokenStream> {
-        Some(match k {
-            Kernel::Spherical => quote!(TreeJointKind::Spherical),
-            Kernel::Revolute => quote!(TreeJointKind::Revolute),
-            Kernel::Prismatic => quote!(TreeJointKind::Prismatic),
-            Kernel::Cylindrical => quote!(TreeJointKind::Cylindrical),
-            Kernel::Universal => quote!(TreeJointKind::Universal),
-            Kernel::Fixed => quote!(TreeJointKind::Fixed),
-            Kernel::Planar => quote!(TreeJointKind::Planar),
-            _ => return None,
+    // The variant's name is the enum's own (`Debug` prints the bare variant name).
+    let tree_kind = |k: JointKernel| -> Option<TokenStream> {
+        k.is_tree().then(|| {
+            let v = format_ident!("{}", format!("{k:?}"));
+            quote!(JointKernel::#v)
         })
     };
     let has_tree = spec.joints.iter().any(|c| tree_kind(c.kernel).is_some());
@@ -695,14 +689,14 @@ pub fn file(
             }
         };
         quote! {
-            fn tree_joint(&self, joint: usize) -> Option<(TreeJointKind, &JointGeom)> {
+            fn tree_joint(&self, joint: usize) -> Option<(JointKernel, &JointGeom)> {
                 #body
             }
         }
     };
     if has_tree {
         uses.push(quote!(
-            use mbdc_runtime::system::TreeJointKind;
+            use mbdc_runtime::system::JointKernel;
         ));
         uses.push(quote!(
             use mbdc_runtime::joints::JointGeom;

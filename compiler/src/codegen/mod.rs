@@ -94,7 +94,7 @@ pub struct Generated {
     pub mode: Mode,
     /// The scene as JSON (what [`SceneJson::Include`] must point at).
     pub scene_json: String,
-    /// The effects the scene uses (as [`mbdc_runtime::scene::Effects::names`]).
+    /// The effects the scene uses (as [`mbdc_runtime::effects::Effects::names`]).
     pub effects: Vec<&'static str>,
 }
 
@@ -135,7 +135,7 @@ pub fn generate(scene: &Scene, options: &Options) -> Result<Generated, CodegenEr
         .unwrap_or_else(|| module_name(&scene.name));
     let scene_json =
         serde_json::to_string(scene).map_err(|e| CodegenError::Internal(e.to_string()))?;
-    let effects = scene.effects().names();
+    let effects = mbdc_runtime::effects::Effects::of(scene).names();
     let tokens = emit::file(
         &plan,
         scene,

@@ -6,7 +6,7 @@
 //! - [`four_bar`]: the proc-macro route from a file, `include_model!("…/four_bar.mbd")`;
 //! - [`pendulum`]: the proc-macro route with the model written inline, `model! { … }`.
 
-use mbdc_runtime::run::{self, Frame, Observer, OnFailure, RunConfig, RunReport, Watchdog};
+use mbdc_runtime::run_loop::{self, Frame, Observer, OnFailure, RunConfig, RunReport, Watchdog};
 use mbdc_runtime::scene::{MethodSpec, Scene};
 use mbdc_runtime::system::System;
 
@@ -64,12 +64,12 @@ pub fn simulate<S: System>(sys: &S, scene: &Scene, duration: f64) -> Outcome {
         every: 10,
         on_failure: OnFailure::Stop,
         watchdog: Watchdog::for_scale(
-            run::length_scale(sys),
+            run_loop::length_scale(sys),
             mbdc_runtime::app::energy_sources(scene),
         ),
     };
     let mut obs = Energy(Vec::new(), Vec::new());
-    let report = run::run(sys, &cfg, &mut obs);
+    let report = run_loop::run(sys, &cfg, &mut obs);
     Outcome {
         name: scene.name.clone(),
         report,

@@ -6,10 +6,10 @@
 
 use nalgebra::Vector3;
 
+use crate::contract::system::{ConstraintEval, Layout, MassProps, Pose, RowKind, Twist, Wrench};
 use crate::linalg::{
     Backend, Definiteness, KSolver, KSolverOptions, LinalgError, DEFAULT_PIVOT_TOL,
 };
-use crate::system::{ConstraintEval, Layout, MassProps, Pose, RowKind, Twist, Wrench};
 
 /// `ω × (J ω)`: the gyroscopic term `D_ω` of notes A eq. 37 (body components).
 #[inline]

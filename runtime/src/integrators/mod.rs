@@ -22,7 +22,7 @@ pub mod staggered;
 pub(crate) mod testsys;
 pub mod trapezoid;
 
-use crate::system::{Pose, System, Twist};
+use crate::contract::system::{Pose, System, Twist};
 
 /// The synchronized state at a step time.
 #[derive(Clone, Debug, Default)]
@@ -64,46 +64,46 @@ impl State {
 /// Build the integrator for `method` with step `h`, starting from `start`.
 ///
 /// Refused up front ([`StartError::Invalid`]): a step that is not positive and finite,
-/// options out of range ([`crate::limits::check_method`]), and a dense method
+/// options out of range ([`crate::analysis::input_limits::check_method`]), and a dense method
 /// (`coordinate_partitioning`, `implicit_trapezoid`, `staggered` with `factorization
-/// dense`) on a system of more than [`crate::limits::MAX_DENSE_UNKNOWNS`] unknowns.
+/// dense`) on a system of more than [`crate::analysis::input_limits::MAX_DENSE_UNKNOWNS`] unknowns.
 pub fn make<'a, S: System + 'a>(
-    method: &crate::scene::MethodSpec,
+    method: &crate::contract::scene::MethodSpec,
     sys: &S,
     h: f64,
     start: &State,
 ) -> Result<Box<dyn Integrator<S> + 'a>, StartError> {
-    use crate::limits;
-    use crate::scene::MethodSpec as M;
+    use crate::analysis::input_limits;
+    use crate::contract::scene::MethodSpec as M;
     if !(h.is_finite() && h > 0.0) {
         return Err(StartError::Invalid(format!(
             "the step must be positive and finite, got {h}"
         )));
     }
-    limits::check_method(method).map_err(StartError::Invalid)?;
+    input_limits::check_method(method).map_err(StartError::Invalid)?;
     if matches!(
         method,
         M::CoordinatePartitioning | M::ImplicitTrapezoid { .. }
     ) {
         let l = sys.layout();
         let n = 6 * l.bodies() + l.rows;
-        if n > limits::MAX_DENSE_UNKNOWNS {
+        if n > input_limits::MAX_DENSE_UNKNOWNS {
             return Err(StartError::Invalid(format!(
                 "{} is a dense method and this system has {n} unknowns (6 per body and {} constraint rows), more than its limit of {}: use staggered or natural_partitioning",
                 method.name(),
                 l.rows,
-                limits::MAX_DENSE_UNKNOWNS
+                input_limits::MAX_DENSE_UNKNOWNS
             )));
         }
     }
     if let M::Staggered(o) = method {
         let rows = sys.layout().rows;
-        if o.factorization == crate::scene::Factorization::Dense
-            && rows > limits::MAX_DENSE_UNKNOWNS
+        if o.factorization == crate::contract::scene::Factorization::Dense
+            && rows > input_limits::MAX_DENSE_UNKNOWNS
         {
             return Err(StartError::Invalid(format!(
                 "staggered with `factorization dense` factors a dense matrix of one row and column per constraint row, and this system has {rows} rows, more than the limit of {}: use `factorization auto` (the default) or `sparse`",
-                limits::MAX_DENSE_UNKNOWNS
+                input_limits::MAX_DENSE_UNKNOWNS
             )));
         }
     }

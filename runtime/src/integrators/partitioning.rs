@@ -23,9 +23,9 @@ use nalgebra::{DMatrix, Vector3};
 
 use super::common::{self, qbar};
 use super::{Integrator, StartError, State, StepError, StepInfo};
+use crate::contract::math::cayley_update;
+use crate::contract::system::{ConstraintEval, Layout, Need, Pose, RowKind, System, Twist, Wrench};
 use crate::linalg::DenseLu as Lu;
-use crate::math::cayley_update;
-use crate::system::{ConstraintEval, Layout, Need, Pose, RowKind, System, Twist, Wrench};
 
 /// The coordinate-partitioning integrator.
 pub struct Partitioning {

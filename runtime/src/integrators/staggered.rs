@@ -11,7 +11,7 @@
 //! `u̇ ← u̇ + h M⁻¹(Q̄ − Bᵀλ)`, `r ← r + h v`, `q ← cayley(q, ω, h)`,
 //!
 //! where the Euler parameters use the midpoint-implicit (Cayley) rule with the corrected
-//! `Δ = 1 + h²|ω|²/16` ([`crate::math::cayley_update`]) and `Q̄ = F − ω × Jω`.
+//! `Δ = 1 + h²|ω|²/16` ([`crate::contract::math::cayley_update`]) and `Q̄ = F − ω × Jω`.
 //!
 //! The gyroscopic term must be evaluated at a synchronous ω: extrapolating it explicitly "can
 //! lead quickly to computational instability" (C3 §IV.B, Fig. 7). Three treatments, chosen by
@@ -86,10 +86,10 @@
 
 use super::common::{self, accel, b_minv, b_times, bt_lambda, qbar, Index1};
 use super::{Integrator, StartError, State, StepError, StepInfo};
+use crate::contract::math::cayley_update;
+use crate::contract::scene::{Factorization, Gyroscopic, LintForm, StaggeredOptions};
+use crate::contract::system::{ConstraintEval, Need, Pose, RowKind, System, Twist, Wrench};
 use crate::linalg::{Backend, Definiteness, KSolver, KSolverOptions, LinalgError};
-use crate::math::cayley_update;
-use crate::scene::{Factorization, Gyroscopic, LintForm, StaggeredOptions};
-use crate::system::{ConstraintEval, Need, Pose, RowKind, System, Twist, Wrench};
 
 /// One leapfrog sequence.
 #[derive(Clone, Debug)]
@@ -476,7 +476,7 @@ impl TwoStage {
 
     /// Advance `src` by h with the current `qbar` and `flam` into `dst`.
     fn cint(
-        layout: &crate::system::Layout,
+        layout: &crate::contract::system::Layout,
         o: CintOpts,
         qbar: &[Wrench],
         flam: &[Wrench],
@@ -497,7 +497,7 @@ impl TwoStage {
 
     /// Advance `seq` by h in place.
     fn cint_in_place(
-        layout: &crate::system::Layout,
+        layout: &crate::contract::system::Layout,
         o: CintOpts,
         qbar: &[Wrench],
         flam: &[Wrench],
@@ -899,7 +899,7 @@ fn midpoint_rhs_factor(lam_step: f64, paper_literal: bool) -> f64 {
 /// CINT for one body: `u̇ + h M⁻¹(Q̄ − f_λ)`, then positions with the new velocity.
 #[inline]
 fn cint_body(
-    m: &crate::system::MassProps,
+    m: &crate::contract::system::MassProps,
     o: CintOpts,
     qbar: &Wrench,
     flam: &Wrench,
@@ -931,7 +931,7 @@ fn cint_body(
         Pose {
             r: p.r + v.v * h,
             q,
-            c: crate::math::rotation(&q),
+            c: crate::contract::math::rotation(&q),
         },
         v,
     )
@@ -950,7 +950,7 @@ fn half_ahead(v1: &Twist, v0: &Twist) -> Twist {
 /// `J(ω⁺ − ω)/h + ω̄ × Jω̄ = τ`, `ω̄ = (ω + ω⁺)/2`, solved for ω⁺ by Newton iterations
 /// (started from the explicit update). Conserves `ωᵀJω` and `|Jω|` when τ = 0.
 fn midpoint_kick(
-    m: &crate::system::MassProps,
+    m: &crate::contract::system::MassProps,
     w0: &nalgebra::Vector3<f64>,
     tau: &nalgebra::Vector3<f64>,
     h: f64,
@@ -960,7 +960,8 @@ fn midpoint_kick(
     for _ in 0..8 {
         let wb = (w0 + w1) * 0.5;
         let f = j * (w1 - w0) / h + wb.cross(&(j * wb)) - tau;
-        let jac = j / h + (crate::math::skew(&wb) * j - crate::math::skew(&(j * wb))) * 0.5;
+        let jac = j / h
+            + (crate::contract::math::skew(&wb) * j - crate::contract::math::skew(&(j * wb))) * 0.5;
         let Some(inv) = jac.try_inverse() else { break };
         let d = inv * f;
         w1 -= d;

@@ -3,8 +3,8 @@
 
 use nalgebra::{Matrix3, Quaternion, Vector3};
 
-use crate::math::skew;
-use crate::system::*;
+use crate::contract::math::skew;
+use crate::contract::system::*;
 
 /// A rod of length `l` along its body z axis, pivoted at its top end (body point (0,0,l/2))
 /// at the world origin, released at angle `theta0` from the downward vertical in the x–z plane.

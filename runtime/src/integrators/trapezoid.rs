@@ -37,9 +37,9 @@ use nalgebra::{DMatrix, Matrix3, Quaternion, Vector3};
 
 use super::common::{self, accel, bt_lambda, qbar, Index1};
 use super::{Integrator, StartError, State, StepError, StepInfo};
+use crate::contract::math::{rotation, skew};
+use crate::contract::system::{ConstraintEval, Need, Pose, RowKind, System, Twist, Wrench};
 use crate::linalg::{Backend, Definiteness, DenseLu, KSolver, KSolverOptions, DEFAULT_PIVOT_TOL};
-use crate::math::{rotation, skew};
-use crate::system::{ConstraintEval, Need, Pose, RowKind, System, Twist, Wrench};
 
 /// The implicit trapezoidal integrator.
 pub struct Trapezoid {

@@ -3,7 +3,7 @@
 
 use nalgebra::DMatrix;
 
-use crate::system::{Layout, MassProps, RowJac};
+use crate::contract::system::{Layout, MassProps, RowJac};
 
 /// Side combinations of an entry `(r, s)`: bit 0 `a_r = a_s`, bit 1 `a_r = b_s`,
 /// bit 2 `b_r = a_s`, bit 3 `b_r = b_s` (same body, not ground).

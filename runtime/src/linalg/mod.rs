@@ -5,7 +5,7 @@
 //! # What is solved (notes A §1.2–1.6, C §1)
 //!
 //! All constraint methods need a symmetric matrix built from the row-wise Jacobian `B`
-//! (`m × 6n`, one [`RowJac`](crate::system::RowJac) per row) and the block-diagonal mass
+//! (`m × 6n`, one [`RowJac`](crate::contract::system::RowJac) per row) and the block-diagonal mass
 //! matrix `M = diag(mᵢ I₃, Jᵢ)`:
 //!
 //! - index-1 / Baumgarte / implicit trapezoid: `K = B M⁻¹ Bᵀ` (eqs. 5, 11);
@@ -85,7 +85,7 @@
 //! factorization up to 100 rows (≤ 0.1 ms): pivoting chooses better-conditioned
 //! independent rows when several are nearly dependent.
 //!
-//! [`Layout`]: crate::system::Layout
+//! [`Layout`]: crate::contract::system::Layout
 
 mod dense;
 mod kmatrix;

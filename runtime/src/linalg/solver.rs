@@ -7,7 +7,7 @@ use super::dense::{DenseCholesky, PivotedCholesky};
 use super::kmatrix::ConstraintMatrix;
 use super::sparse::SparseCholesky;
 use super::{Definiteness, FactorStats, LinalgError};
-use crate::system::{Layout, MassProps, RowJac};
+use crate::contract::system::{Layout, MassProps, RowJac};
 
 /// Rows from which [`Backend::Auto`] considers the sparse factorization (measured
 /// crossover, see the module doc of [`crate::linalg`]).

@@ -351,11 +351,11 @@ mod tests {
     use nalgebra::DMatrix;
 
     use super::*;
+    use crate::contract::system::Layout;
     use crate::linalg::testutil::{
         chain_layout, ladder_layout, random_jac, random_layout, rel_residual, Rng,
     };
     use crate::linalg::{ConstraintMatrix, PivotedCholesky, DEFAULT_PIVOT_TOL};
-    use crate::system::Layout;
 
     fn sparse_for(
         k: &ConstraintMatrix,

@@ -3,7 +3,7 @@
 
 use nalgebra::{DMatrix, Matrix3};
 
-use crate::system::{JointLayout, Layout, MassProps, RowJac, RowKind};
+use crate::contract::system::{JointLayout, Layout, MassProps, RowJac, RowKind};
 
 /// SplitMix64: small, deterministic, good enough for test matrices.
 pub struct Rng(u64);

@@ -2,7 +2,7 @@
 //! system with any method and keep every frame.
 
 use mbdc_runtime::compiled::CompiledModel;
-use mbdc_runtime::run::{self, Frame, Observer, OnFailure, RunConfig, RunReport, Watchdog};
+use mbdc_runtime::run_loop::{self, Frame, Observer, OnFailure, RunConfig, RunReport, Watchdog};
 use mbdc_runtime::scene::{MethodSpec, Scene};
 use mbdc_runtime::system::System;
 
@@ -50,7 +50,7 @@ pub fn config<S: System>(sys: &S, scene: &Scene, method: &MethodSpec, steps: u32
         every: 1,
         on_failure: OnFailure::Stop,
         watchdog: Watchdog::for_scale(
-            run::length_scale(sys),
+            run_loop::length_scale(sys),
             mbdc_runtime::app::energy_sources(scene),
         ),
     }
@@ -59,7 +59,7 @@ pub fn config<S: System>(sys: &S, scene: &Scene, method: &MethodSpec, steps: u32
 /// Run `sys` and keep every frame's numbers.
 pub fn frames<S: System>(sys: &S, cfg: &RunConfig) -> (RunReport, Vec<Numbers>) {
     let mut k = Keep(Vec::new());
-    let r = run::run(sys, cfg, &mut k);
+    let r = run_loop::run(sys, cfg, &mut k);
     (r, k.0)
 }
 

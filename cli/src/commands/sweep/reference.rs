@@ -22,7 +22,7 @@
 //! (`max`).
 
 use mbdc_runtime::fn1;
-use mbdc_runtime::run::{Frame, Observer};
+use mbdc_runtime::run_loop::{Frame, Observer};
 use mbdc_runtime::scene::{BodyReference, Scene};
 
 use super::runner::Track;

@@ -27,7 +27,7 @@ use std::process::{Command, Stdio};
 
 use mbdc_runtime::interp::Interp;
 use mbdc_runtime::output::Summary;
-use mbdc_runtime::run::{self, Frame, Observer, OnFailure, RunConfig, RunReport, Watchdog};
+use mbdc_runtime::run_loop::{self, Frame, Observer, OnFailure, RunConfig, RunReport, Watchdog};
 use mbdc_runtime::scene::{MethodSpec, OutputSpec, Scene};
 
 /// Body states at the output frames of a run, frame-major (`r[f * bodies + b]`).
@@ -299,12 +299,12 @@ impl InterpRunner {
             on_failure: OnFailure::Stop,
             watchdog: self.watchdog,
         };
-        guarded(|| run::run(&self.sys, &cfg, obs)).unwrap_or_else(|msg| RunReport {
+        guarded(|| run_loop::run(&self.sys, &cfg, obs)).unwrap_or_else(|msg| RunReport {
             steps: 0,
             t_end: 0.0,
             step,
             finished: false,
-            failure: Some(mbdc_runtime::run::Failure {
+            failure: Some(mbdc_runtime::run_loop::Failure {
                 time: 0.0,
                 step: 0,
                 location: "system".into(),
@@ -339,7 +339,7 @@ pub fn guarded<T>(f: impl FnOnce() -> T) -> Result<T, String> {
 /// The run driver's watchdog for a scene, as `mbdc run` sets it.
 pub fn watchdog<S: mbdc_runtime::system::System>(sys: &S, scene: &Scene) -> Watchdog {
     Watchdog::for_scale(
-        run::length_scale(sys),
+        run_loop::length_scale(sys),
         mbdc_runtime::app::energy_sources(scene),
     )
 }

@@ -1,7 +1,7 @@
 //! The stability estimate behind the default step series: the largest angular rate or
 //! frequency ω_max the scene shows at t = 0.
 //!
-//! It is the runtime's estimate ([`mbdc_runtime::stability`]: body spin, springs with their
+//! It is the runtime's estimate ([`mbdc_runtime::step_limits`]: body spin, springs with their
 //! lever arms, rotational springs, contact, damping), completed here with one source the
 //! runtime does not count: gravity on a hinged body, √(|g| / d) with d the distance from a
 //! joint point to the body's mass centre (the simple-pendulum rate, an upper bound for the
@@ -50,7 +50,7 @@ pub fn estimate(scene: &Scene) -> Option<Estimate> {
     if !scene.beams.is_empty() || !scene.meshes.is_empty() {
         return None;
     }
-    let rt = mbdc_runtime::stability::estimate(scene);
+    let rt = mbdc_runtime::step_limits::estimate(scene);
     let mut best: Option<Estimate> = rt.fastest().map(|s| Estimate {
         omega_max: s.omega,
         source: s.what.clone(),

@@ -8,7 +8,7 @@
 //! The layout's tree-eligible joints form a spanning forest ([`tree`], the same as
 //! `mbdc check --topology` prints); every other row (cut joints closing loops, drivers,
 //! distance, curve, rolling, point-velocity rows, locks) is a *cut row*, `B_c`. With the
-//! tree null space `u̇ = A q̇` ([`kin`]: per joint `u_c = X u_p + S q̇`, the dependent
+//! tree null space `u̇ = A q̇` ([`tree_joints`](crate::kernels::tree_joints): per joint `u_c = X u_p + S q̇`, the dependent
 //! translational blocks `B^d = ∓I` inverted analytically), the equations of motion
 //! `M ü + B_tᵀλ_t + B_cᵀλ_c = F` reduce to (notes C eq. 3.4.6, with `ü = A q̈ + Ȧq̇`)
 //!
@@ -63,7 +63,7 @@
 //!    the M-orthogonal correction along `M⁻¹B_tᵀ(τ)` (one backward and one forward sweep
 //!    with the factorization at τ), the velocities `u(τ + h/2)` corrected by the same
 //!    displacement over h, then a last geometric projection root → leaf
-//!    ([`kin::project`]) that takes the remaining `O(h⁴)` violation to round-off;
+//!    ([`tree_joints::project`](crate::kernels::tree_joints::project)) that takes the remaining `O(h⁴)` violation to round-off;
 //! 4. the estimate `ū` updated from the result; steps 2–3 (with the backward half of the
 //!    solve for the new right-hand side, the factorization kept) repeat until the
 //!    gyroscopic impulse of the kick changes by less than 1e-14 relative, a fixed-point
@@ -91,7 +91,6 @@
 //! geometric correction; leaf → root and root → leaf: the M-orthogonal correction) and
 //! two per-body passes, over one [`reduced::Node`] per body.
 
-pub mod kin;
 pub mod reduced;
 pub mod tree;
 
@@ -99,9 +98,11 @@ use nalgebra::Vector3;
 
 use super::common::{self, gyro, Index1};
 use super::{Integrator, StartError, State, StepError, StepInfo};
-use crate::math::cayley_update;
-use crate::system::{ConstraintEval, Layout, Need, Pose, RowJac, RowKind, System, Twist, Wrench};
-use kin::TreeJointKin;
+use crate::contract::math::cayley_update;
+use crate::contract::system::{
+    ConstraintEval, Layout, Need, Pose, RowJac, RowKind, System, Twist, Wrench,
+};
+use crate::kernels::tree_joints::{self, TreeJointKin};
 use reduced::{free_kin, pcg, Factor, Node, PcgOps, Solver};
 use tree::{Tree, NONE};
 
@@ -200,6 +201,47 @@ struct CutOps<'a, 't> {
     e: &'a [f64],
     diag: &'a [f64],
     h2: f64,
+}
+
+/// The null-space blocks of tree joint `joint` (layout index) at the poses `parent`
+/// (identity for the ground) and `child`, from the system's kernel and geometry
+/// ([`System::tree_joint`]) and the tree-joint kernels. `false` when the system does not
+/// describe the joint. Does not allocate.
+#[inline]
+fn joint_blocks<S: System>(
+    sys: &S,
+    joint: usize,
+    child_is_b: bool,
+    parent: &Pose,
+    child: &Pose,
+    out: &mut TreeJointKin,
+) -> bool {
+    match sys.tree_joint(joint) {
+        Some((kernel, g)) => {
+            tree_joints::tree_joint(kernel, g, child_is_b, parent, child, out);
+            true
+        }
+        None => false,
+    }
+}
+
+/// Move `child` (the parent's pose fixed) back onto the position constraints of tree joint
+/// `joint` ([`tree_joints::project`]). `false` when the system does not describe the joint.
+#[inline]
+fn project_child<S: System>(
+    sys: &S,
+    joint: usize,
+    child_is_b: bool,
+    parent: &Pose,
+    child: &mut Pose,
+) -> bool {
+    match sys.tree_joint(joint) {
+        Some((kernel, g)) => {
+            tree_joints::project(kernel, g, child_is_b, parent, child);
+            true
+        }
+        None => false,
+    }
 }
 
 #[inline]
@@ -312,7 +354,8 @@ impl Natural {
         let mut probe = TreeJointKin::default();
         for l in &tree.links {
             if l.joint != NONE
-                && !sys.tree_joint_kinematics(
+                && !joint_blocks(
+                    sys,
                     l.joint,
                     l.child_is_b,
                     &Pose::default(),
@@ -558,7 +601,14 @@ impl Natural {
             } else {
                 &pose[tree.links[l.parent].body]
             };
-            sys.tree_joint_kinematics(l.joint, l.child_is_b, parent, &pose[l.body], &mut n.kin);
+            joint_blocks(
+                sys,
+                l.joint,
+                l.child_is_b,
+                parent,
+                &pose[l.body],
+                &mut n.kin,
+            );
         });
     }
 
@@ -581,7 +631,7 @@ impl Natural {
                     let parent = view
                         .parent(i, l.parent, br)
                         .map_or(Pose::default(), |p| p.pose);
-                    sys.tree_joint_project(l.joint, l.child_is_b, &parent, &mut br[i].pose);
+                    project_child(sys, l.joint, l.child_is_b, &parent, &mut br[i].pose);
                 }
             });
         for (p, l) in tree.links.iter().enumerate() {
@@ -657,7 +707,7 @@ impl Natural {
                 };
                 let child = &pose[b];
                 if with_kin {
-                    sys.tree_joint_kinematics(l.joint, l.child_is_b, parent, child, &mut node.kin);
+                    joint_blocks(sys, l.joint, l.child_is_b, parent, child, &mut node.kin);
                 }
                 let up = if l.parent == NONE {
                     Twist::default()
@@ -767,7 +817,7 @@ impl Natural {
             Pose {
                 r: src.pose[b].r + v.v * h,
                 q,
-                c: crate::math::rotation(&q),
+                c: crate::contract::math::rotation(&q),
             }
         };
         // Sweep C.
@@ -807,7 +857,7 @@ impl Natural {
                     node.raw = v;
                     node.pose = raw;
                     if l.joint != NONE {
-                        sys.tree_joint_project(l.joint, l.child_is_b, &ppose, &mut node.pose);
+                        project_child(sys, l.joint, l.child_is_b, &ppose, &mut node.pose);
                     }
                     // δq_geo as a twist-like displacement (world translation, body rotation)
                     node.dq = displacement(&raw, &node.pose);
@@ -847,7 +897,7 @@ impl Natural {
                         w: node.raw.w + d.w / h,
                     };
                     if l.joint != NONE {
-                        sys.tree_joint_project(l.joint, l.child_is_b, &ppose, &mut node.pose);
+                        project_child(sys, l.joint, l.child_is_b, &ppose, &mut node.pose);
                     }
                 }
             });
@@ -1201,7 +1251,7 @@ impl Natural {
 /// rotation vector (`b = a ⊕ d` to second order), the coordinates dual to a [`Twist`].
 #[inline]
 fn displacement(a: &Pose, b: &Pose) -> Twist {
-    let dq = crate::math::qmul(&crate::math::qconj(&a.q), &b.q);
+    let dq = crate::contract::math::qmul(&crate::contract::math::qconj(&a.q), &b.q);
     let s = if dq.w < 0.0 { -2.0 } else { 2.0 };
     Twist {
         v: b.r - a.r,
@@ -1247,7 +1297,9 @@ fn midpoint_kick(
         if h.abs() * f.norm() <= scale * jn {
             break;
         }
-        let jac = j + (crate::math::skew(&wb) * j - crate::math::skew(&jwb)) * (h * 0.5);
+        let jac = j
+            + (crate::contract::math::skew(&wb) * j - crate::contract::math::skew(&jwb))
+                * (h * 0.5);
         let Some(inv) = jac.try_inverse() else { break };
         let dd = inv * f;
         d -= dd;
@@ -1387,26 +1439,27 @@ mod tests {
     use nalgebra::{Matrix3, Quaternion};
     use proptest::prelude::*;
 
-    use super::kin::tests::{random_geom, rquat, rvec, KINDS};
-    use super::kin::TreeJointKind;
     use super::reduced::Precond;
     use super::*;
-    use crate::interp::Interp;
-    use crate::linalg::testutil::Rng;
-    use crate::math::quat_array;
-    use crate::scene::{
+    use crate::contract::math::quat_array;
+    use crate::contract::scene::{
         Attachment, Body, BodyRef, Joint, JointKind, MethodSpec, Origin, Scene, Simulate,
     };
+    use crate::contract::system::JointKernel;
+    use crate::interp::Interp;
+    use crate::kernels::tree_joints::tests::{random_geom, rquat, rvec, KINDS};
+    use crate::linalg::testutil::Rng;
 
-    fn scene_kind(k: TreeJointKind) -> JointKind {
+    fn scene_kind(k: JointKernel) -> JointKind {
         match k {
-            TreeJointKind::Spherical => JointKind::Spherical,
-            TreeJointKind::Revolute => JointKind::Revolute,
-            TreeJointKind::Prismatic => JointKind::Prismatic,
-            TreeJointKind::Cylindrical => JointKind::Cylindrical,
-            TreeJointKind::Universal => JointKind::Universal,
-            TreeJointKind::Fixed => JointKind::Fixed,
-            TreeJointKind::Planar => JointKind::Planar,
+            JointKernel::Spherical => JointKind::Spherical,
+            JointKernel::Revolute => JointKind::Revolute,
+            JointKernel::Prismatic => JointKind::Prismatic,
+            JointKernel::Cylindrical => JointKind::Cylindrical,
+            JointKernel::Universal => JointKind::Universal,
+            JointKernel::Fixed => JointKind::Fixed,
+            JointKernel::Planar => JointKind::Planar,
+            other => unreachable!("{other:?} is not a tree kind"),
         }
     }
 
@@ -1434,7 +1487,7 @@ mod tests {
             });
         }
         let mut joints = Vec::new();
-        let att = |body: BodyRef, g: &crate::joints::JointGeom, a: bool| Attachment {
+        let att = |body: BodyRef, g: &crate::kernels::joints::JointGeom, a: bool| Attachment {
             body,
             point: if a { g.pa } else { g.pb },
             frame: if a { g.qa } else { g.qb },
@@ -1724,7 +1777,7 @@ mod tests {
             let mut out = State::initial(&sys);
             let layout = sys.layout().clone();
             let mut ce = ConstraintEval::new(layout.rows);
-            let e0 = crate::energy::kinetic_energy(&layout, &st.twist)
+            let e0 = crate::driver::energy::kinetic_energy(&layout, &st.twist)
                 + sys.potential_energy(0.0, &st.pose);
             let mut worst: f64 = 0.0;
             let mut drift: f64 = 0.0;
@@ -1734,7 +1787,7 @@ mod tests {
                 Integrator::<Interp>::state(&it, &sys, &mut out);
                 sys.constraints(out.t, &out.pose, &out.twist, Need::PHI, &mut ce);
                 worst = ce.phi.iter().fold(worst, |a, p| a.max(p.abs()));
-                let ke = crate::energy::kinetic_energy(&layout, &out.twist);
+                let ke = crate::driver::energy::kinetic_energy(&layout, &out.twist);
                 let e = ke + sys.potential_energy(out.t, &out.pose);
                 emax = emax.max(ke);
                 drift = drift.max((e - e0).abs());

@@ -27,7 +27,7 @@
 //! generalized forces `b`. `x` solves `AᵀMA x = b + Aᵀf` exactly and `u = A x` comes for
 //! free: the body accelerations of the back substitution (4.6). Only the `dof × dof`
 //! blocks `D_c` are factorized (Cholesky, at most 6 × 6); the dependent blocks were
-//! inverted analytically in [`super::kin`].
+//! inverted analytically in [`crate::kernels::tree_joints`].
 //!
 //! # Preconditioned conjugate gradients
 //!
@@ -40,9 +40,9 @@
 
 use nalgebra::{Matrix3, Matrix6, Vector3};
 
-use super::kin::TreeJointKin;
 use super::tree::{Tree, NONE};
-use crate::system::{MassProps, Twist, Wrench};
+use crate::contract::system::{MassProps, Twist, Wrench};
+use crate::kernels::tree_joints::TreeJointKin;
 
 /// Everything the recursions keep per tree position.
 ///
@@ -94,7 +94,7 @@ pub struct Node {
     /// Scratch displacement (position correction).
     pub dq: Twist,
     /// Scratch pose.
-    pub pose: crate::system::Pose,
+    pub pose: crate::contract::system::Pose,
 }
 
 impl Node {
@@ -114,7 +114,7 @@ impl Node {
             tw: Twist::default(),
             raw: Twist::default(),
             dq: Twist::default(),
-            pose: crate::system::Pose::default(),
+            pose: crate::contract::system::Pose::default(),
         }
     }
 

@@ -3,7 +3,7 @@
 //!
 //! # Order
 //!
-//! The tree is [`crate::topology::Topology`]'s (BFS forest rooted at ground and at one
+//! The tree is [`crate::analysis::topology::Topology`]'s (BFS forest rooted at ground and at one
 //! centre body per free component; see there), built here from the layout's joint kinds
 //! and bodies so that the interpreter and generated code get the same tree `mbdc check
 //! --topology` prints. Bodies are renumbered into *positions*: branches by branch depth,
@@ -25,9 +25,11 @@
 //! [`Schedule::par_min`] bodies. Per-body work ([`Schedule::nodes`]) is split into chunks
 //! the same way. Nothing here allocates after construction.
 
-use crate::scene::{Attachment, Body, BodyRef, Fn1, Joint, JointKind, Origin, Scene, Simulate};
-use crate::system::{Layout, TreeJointKind};
-use crate::topology::Topology;
+use crate::analysis::topology::Topology;
+use crate::contract::scene::{
+    Attachment, Body, BodyRef, Fn1, Joint, JointKind, Origin, Scene, Simulate,
+};
+use crate::contract::system::{JointKernel, Layout};
 
 /// Marker for "no position" (ground parent, free root).
 pub const NONE: usize = usize::MAX;
@@ -42,7 +44,7 @@ pub struct Link {
     /// Layout joint to the parent, [`NONE`] for a free root.
     pub joint: usize,
     /// Kind of that joint (`None` for a free root).
-    pub kind: Option<TreeJointKind>,
+    pub kind: Option<JointKernel>,
     /// Whether the child (this body) is side b of the joint.
     pub child_is_b: bool,
     /// Independent rates (6 for a free root).
@@ -113,16 +115,16 @@ fn skeleton(layout: &Layout) -> Scene {
         .iter()
         .map(|j| Joint {
             name: j.name.clone(),
-            kind: match TreeJointKind::from_keyword(j.kind) {
-                Some(TreeJointKind::Spherical) => JointKind::Spherical,
-                Some(TreeJointKind::Revolute) => JointKind::Revolute,
-                Some(TreeJointKind::Prismatic) => JointKind::Prismatic,
-                Some(TreeJointKind::Cylindrical) => JointKind::Cylindrical,
-                Some(TreeJointKind::Universal) => JointKind::Universal,
-                Some(TreeJointKind::Fixed) => JointKind::Fixed,
-                Some(TreeJointKind::Planar) => JointKind::Planar,
+            kind: match JointKernel::from_keyword(j.kind) {
+                Some(JointKernel::Spherical) => JointKind::Spherical,
+                Some(JointKernel::Revolute) => JointKind::Revolute,
+                Some(JointKernel::Prismatic) => JointKind::Prismatic,
+                Some(JointKernel::Cylindrical) => JointKind::Cylindrical,
+                Some(JointKernel::Universal) => JointKind::Universal,
+                Some(JointKernel::Fixed) => JointKind::Fixed,
+                Some(JointKernel::Planar) => JointKind::Planar,
                 // never a tree edge and never a loop: only its rows matter here
-                None => JointKind::Curve {
+                _ => JointKind::Curve {
                     curve: Fn1::Const(0.0),
                 },
             },
@@ -182,7 +184,8 @@ impl Tree {
         for &b in &order {
             let link = match topo.tree_joint(b) {
                 Some(tj) => {
-                    let kind = TreeJointKind::from_keyword(layout.joints[tj.joint].kind)
+                    let kind = JointKernel::from_keyword(layout.joints[tj.joint].kind)
+                        .filter(|k| k.is_tree())
                         .expect("tree joints are tree-eligible");
                     Link {
                         body: b,
@@ -190,7 +193,7 @@ impl Tree {
                         joint: tj.joint,
                         kind: Some(kind),
                         child_is_b: tj.a_is_parent,
-                        dof: kind.dof(),
+                        dof: kind.tree_dof().unwrap_or(0),
                         off,
                     }
                 }
@@ -399,51 +402,4 @@ impl Schedule {
             }
         }
     }
-}
-
-/// The independent coordinates natural partitioning uses for a scene, one line per tree
-/// joint (in the tree's parent-before-child order) and per free root, then the totals:
-/// what `mbdc check --topology` prints after [`Topology::render`].
-pub fn coordinates_report(scene: &Scene, topo: &Topology) -> String {
-    use std::fmt::Write as _;
-    let mut s = String::from("natural partitioning (independent coordinates per joint):\n");
-    let name = |b: usize| scene.bodies.get(b).map_or("?", |x| x.name.as_str());
-    for &b in &topo.order {
-        match topo.tree_joint(b) {
-            Some(tj) => {
-                let j = &scene.joints[tj.joint];
-                let kind = TreeJointKind::from_keyword(j.kind.keyword());
-                let (n, what) = kind.map_or((0, "?"), |k| (k.dof(), k.rate_names()));
-                let _ = writeln!(
-                    s,
-                    "  {} via {} ({}): {n} — {what}",
-                    name(b),
-                    j.name,
-                    j.kind.keyword()
-                );
-            }
-            None => {
-                let _ = writeln!(
-                    s,
-                    "  {} (free root): 6 — v_x, v_y, v_z (world), ω_x, ω_y, ω_z (body axes)",
-                    name(b)
-                );
-            }
-        }
-    }
-    let cut_rows: usize = topo
-        .cut_joints
-        .iter()
-        .chain(&topo.extra_joints)
-        .map(|&j| scene.joints[j].kind.rows())
-        .sum();
-    let _ = writeln!(
-        s,
-        "  total: {} independent coordinates; {} cut rows ({} cut joints, {} other constraints) by staggered stabilization",
-        topo.dof.tree,
-        cut_rows,
-        topo.cut_joints.len(),
-        topo.extra_joints.len()
-    );
-    s
 }

@@ -1,7 +1,7 @@
 //! Rotation math: quaternions (Hamilton, scalar first, body → world), rotation matrices,
 //! skew matrices, and the Euler-parameter midpoint (Cayley) update of notes A §1.9.
 //!
-//! Conventions (as in [`crate::scene`]):
+//! Conventions (as in [`crate::contract::scene`]):
 //! - A quaternion `q = [w, x, y, z]` maps body components to world components:
 //!   `v_world = q ⊗ (0, v_body) ⊗ q*` = [`rotation`]`(q) · v_body`.
 //! - Angular velocity `ω` is in **body** components; the kinematics are

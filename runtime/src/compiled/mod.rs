@@ -35,17 +35,17 @@
 //!
 //! A [`Fn1`] tree becomes an [`FnShape`] (the tree with its constants replaced by slots
 //! `c[k]`, tables by `tb[k]`) and its numbers. Generated code evaluates a shape with the same
-//! [`Jet2`](crate::fn1::Jet2) operations in the same order as [`crate::fn1::eval`], so the
+//! [`Jet2`](crate::kernels::fn1::Jet2) operations in the same order as [`crate::kernels::fn1::eval`], so the
 //! results are bit-identical to the interpreter's.
 
 use serde::Serialize;
 
-use crate::contact::{BoxPlane, SpherePlane, SphereSphere};
-use crate::forces::{RotSpringGeom, SpringGeom};
-use crate::interp::{Interp, InterpError, JointImpl, Lock, Term};
-use crate::joints::JointGeom;
-use crate::scene::{Fn1, ForceFrame, Scene, UnaryFn};
-use crate::system::{Pose, System, Twist};
+use crate::contract::scene::{Fn1, ForceFrame, Scene, UnaryFn};
+use crate::contract::system::{JointKernel, Pose, System, Twist};
+use crate::interp::{Interp, InterpError, Lock, Term};
+use crate::kernels::contact::{BoxPlane, SpherePlane, SphereSphere};
+use crate::kernels::forces::{RotSpringGeom, SpringGeom};
+use crate::kernels::joints::JointGeom;
 
 /// Version of the contract between generated code and this module; part of every key.
 pub const FORMAT: u32 = 1;
@@ -237,53 +237,11 @@ impl FnShape {
     }
 }
 
-/// The joint kernel of a row group.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
-#[allow(missing_docs)]
-pub enum Kernel {
-    Spherical,
-    Revolute,
-    Prismatic,
-    Cylindrical,
-    Universal,
-    Fixed,
-    Planar,
-    Distance,
-    DriveAngle,
-    DriveDisplacement,
-    Rolling,
-    PointVelocity,
-    Curve,
-    /// A lock row (drive_angle with a constant angle from the data).
-    Lock,
-}
-
-impl Kernel {
-    /// The kernel's function name in [`crate::joints`].
-    pub fn function(self) -> &'static str {
-        match self {
-            Kernel::Spherical => "spherical",
-            Kernel::Revolute => "revolute",
-            Kernel::Prismatic => "prismatic",
-            Kernel::Cylindrical => "cylindrical",
-            Kernel::Universal => "universal",
-            Kernel::Fixed => "fixed",
-            Kernel::Planar => "planar",
-            Kernel::Distance => "distance_joint",
-            Kernel::DriveAngle | Kernel::Lock => "drive_angle",
-            Kernel::DriveDisplacement => "drive_displacement",
-            Kernel::Rolling => "rolling",
-            Kernel::PointVelocity => "point_velocity",
-            Kernel::Curve => "curve",
-        }
-    }
-}
-
 /// A joint kind with the shapes of its time functions (indices into [`Spec::shapes`]).
 #[derive(Clone, Debug, PartialEq, Eq, Serialize)]
 pub struct JointCombo {
     /// The kernel.
-    pub kernel: Kernel,
+    pub kernel: JointKernel,
     /// Shapes of its functions: none, one (drivers, curve) or three (point velocity).
     pub fns: Vec<usize>,
 }
@@ -414,7 +372,7 @@ impl Spec {
     }
 
     /// Whether any row group or term has the given kernel / kind.
-    pub fn has_kernel(&self, k: Kernel) -> bool {
+    pub fn has_kernel(&self, k: JointKernel) -> bool {
         self.joints.iter().any(|c| c.kernel == k)
     }
 
@@ -577,31 +535,9 @@ impl Plan {
         let mut uj = Vec::new();
         for e in interp.joint_entries() {
             let (c, tb) = (fns.c.len(), fns.tb.len());
-            let mut lock_angle = 0.0;
-            let (kernel, fs) = match &e.kind {
-                JointImpl::Spherical => (Kernel::Spherical, vec![]),
-                JointImpl::Revolute => (Kernel::Revolute, vec![]),
-                JointImpl::Prismatic => (Kernel::Prismatic, vec![]),
-                JointImpl::Cylindrical => (Kernel::Cylindrical, vec![]),
-                JointImpl::Universal => (Kernel::Universal, vec![]),
-                JointImpl::Fixed => (Kernel::Fixed, vec![]),
-                JointImpl::Planar => (Kernel::Planar, vec![]),
-                JointImpl::Distance => (Kernel::Distance, vec![]),
-                JointImpl::Rolling => (Kernel::Rolling, vec![]),
-                JointImpl::DriveAngle(f) => (Kernel::DriveAngle, vec![shape(&mut fns, f)]),
-                JointImpl::DriveDisplacement(f) => {
-                    (Kernel::DriveDisplacement, vec![shape(&mut fns, f)])
-                }
-                JointImpl::Curve(f) => (Kernel::Curve, vec![shape(&mut fns, f)]),
-                JointImpl::PointVelocity(v) => (
-                    Kernel::PointVelocity,
-                    v.iter().map(|f| shape(&mut fns, f)).collect(),
-                ),
-                JointImpl::Lock(angle) => {
-                    lock_angle = *angle;
-                    (Kernel::Lock, vec![])
-                }
-            };
+            let kernel = e.kernel;
+            let lock_angle = e.lock_angle;
+            let fs: Vec<usize> = e.fns.iter().map(|f| shape(&mut fns, f)).collect();
             let combo = intern(&mut jc, JointCombo { kernel, fns: fs });
             joints.push(JointRow {
                 combo,
@@ -801,7 +737,7 @@ pub trait CompiledModel: System + Sized {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::fn1;
+    use crate::kernels::fn1;
 
     #[test]
     fn shapes_and_slots() {

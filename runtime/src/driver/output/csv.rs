@@ -1,7 +1,7 @@
 //! CSV headers and rows: numbers in shortest round-trip form (ryu), names quoted when
 //! they need it.
 
-use crate::system::Layout;
+use crate::contract::system::Layout;
 
 use super::Frame;
 

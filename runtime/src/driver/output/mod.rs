@@ -65,8 +65,8 @@ use std::thread::JoinHandle;
 
 use serde::{Deserialize, Serialize};
 
-use crate::scene::OutputSpec;
-use crate::system::{Layout, Pose, RowKind, Twist};
+use crate::contract::scene::OutputSpec;
+use crate::contract::system::{Layout, Pose, RowKind, Twist};
 
 pub use csv::{bodies_header, constraints_header, energy_header, BODY_COLUMNS, ENERGY_COLUMNS};
 

@@ -9,7 +9,7 @@
 //! L = Σ r × m v + C J ω                       (about the world origin, world components)
 //! ```
 
-use crate::system::{Layout, Pose, Twist};
+use crate::contract::system::{Layout, Pose, Twist};
 use nalgebra::Vector3;
 
 /// Kinetic energy `Σ ½ m |v|² + ½ ωᵀ J ω`, J.
@@ -46,8 +46,8 @@ pub fn angular_momentum(layout: &Layout, pose: &[Pose], twist: &[Twist]) -> Vect
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::math::axis_angle;
-    use crate::system::MassProps;
+    use crate::contract::math::axis_angle;
+    use crate::contract::system::MassProps;
     use nalgebra::Matrix3;
 
     fn layout() -> Layout {

@@ -14,13 +14,12 @@
 //!
 //! Sign convention (notes A §0, C §0): `M u̇' + Bᵀλ = F`, with `λ = Φ/ε` for penalty forms.
 //!
-//! [`Scene`]: crate::scene::Scene
+//! [`Scene`]: crate::contract::scene::Scene
 
 use nalgebra::{Matrix3, Quaternion, Vector3};
 
-use crate::integrators::natural::kin;
-pub use crate::integrators::natural::kin::{TreeJointKin, TreeJointKind};
-use crate::joints::JointGeom;
+pub use crate::contract::joint_geom::JointGeom;
+pub use crate::contract::joint_kernel::JointKernel;
 
 /// Position and orientation of a body.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -51,7 +50,7 @@ impl Pose {
     pub fn set_q(&mut self, q: Quaternion<f64>) {
         let n = q.norm();
         self.q = q / n;
-        self.c = crate::math::rotation(&self.q);
+        self.c = crate::contract::math::rotation(&self.q);
     }
 
     /// A world point from a body-frame point (relative to the mass centre).
@@ -301,67 +300,14 @@ pub trait System: Sync {
         true
     }
 
-    // ---- Natural partitioning hooks (notes C §1; `integrators::natural`) -------------
-    //
-    // The method walks the spanning tree of the layout's tree-eligible joints (built once
-    // from `Layout::joints[..].kind`, `a`, `b` by `topology`) and needs, per tree joint,
-    // its null-space blocks and a position projection. The three methods below provide
-    // them. A system only has to implement `tree_joint` (kind and geometry); the other two
-    // then work through the generic kernels of `integrators::natural::kin`. Generated code
-    // may instead override `tree_joint_kinematics` and `tree_joint_project` with a `match`
-    // on the joint index that calls the per-kind kernels (`kin::revolute(&G3, ..)`, ...)
-    // on `const` geometry, i.e. the blocks specialized per joint kind.
-
-    /// Natural partitioning: the kind and geometry of layout joint `joint` when it is one of
-    /// the tree-eligible kinds (spherical, revolute, prismatic, cylindrical, universal,
+    /// Natural partitioning (notes C §1; `integrators::natural`): the kernel and geometry of
+    /// layout joint `joint` when it is one of the tree-eligible kinds
+    /// ([`JointKernel::is_tree`]: spherical, revolute, prismatic, cylindrical, universal,
     /// fixed, planar), `None` otherwise. The geometry must be the one the joint's
-    /// constraint rows use. Default: `None` for every joint, which makes
-    /// `natural_partitioning` unavailable unless the two methods below are overridden.
-    fn tree_joint(&self, _joint: usize) -> Option<(TreeJointKind, &JointGeom)> {
+    /// constraint rows use: the method computes the joint's null-space blocks and position
+    /// projection from it with the tree-joint kernels. Default: `None` for every joint,
+    /// which makes `natural_partitioning` unavailable.
+    fn tree_joint(&self, _joint: usize) -> Option<(JointKernel, &JointGeom)> {
         None
-    }
-
-    /// Natural partitioning: the null-space blocks of tree joint `joint` (layout index)
-    /// at the poses `parent` (identity for the ground) and `child`; `child_is_b` says
-    /// which side of the joint the child is. Writes `out` and returns `true`, or returns
-    /// `false` when the system does not describe the joint. Must not allocate.
-    ///
-    /// Default: the generic kernel [`kin::tree_joint`] on [`System::tree_joint`].
-    fn tree_joint_kinematics(
-        &self,
-        joint: usize,
-        child_is_b: bool,
-        parent: &Pose,
-        child: &Pose,
-        out: &mut TreeJointKin,
-    ) -> bool {
-        match self.tree_joint(joint) {
-            Some((kind, g)) => {
-                kin::tree_joint(kind, g, child_is_b, parent, child, out);
-                true
-            }
-            None => false,
-        }
-    }
-
-    /// Natural partitioning: move `child` (the parent's pose fixed) back onto the position
-    /// constraints of tree joint `joint`. Returns `false` when the system does not
-    /// describe the joint. Must not allocate.
-    ///
-    /// Default: [`kin::project`] on [`System::tree_joint`].
-    fn tree_joint_project(
-        &self,
-        joint: usize,
-        child_is_b: bool,
-        parent: &Pose,
-        child: &mut Pose,
-    ) -> bool {
-        match self.tree_joint(joint) {
-            Some((kind, g)) => {
-                kin::project(kind, g, child_is_b, parent, child);
-                true
-            }
-            None => false,
-        }
     }
 }

@@ -1,9 +1,9 @@
 //! Joint kernels: constraint values, Jacobian rows, bias and acceleration right-hand
-//! side for every [`JointKind`](crate::scene::JointKind), built from a handful of tested primitives.
+//! side for every [`JointKind`](crate::contract::scene::JointKind), built from a handful of tested primitives.
 //!
 //! # Conventions
 //!
-//! - Body coordinates as in [`crate::system`]: per body the mass-centre position `r`
+//! - Body coordinates as in [`crate::contract::system`]: per body the mass-centre position `r`
 //!   (world), orientation `C = rotation(q)` (body → world), velocity `u̇ = (v, ω)` with `v`
 //!   in world and `ω` in **body** components. Jacobian blocks ([`RowJac`]) are written
 //!   against `(v, ω_body)`.
@@ -14,7 +14,7 @@
 //!   `fa = [xa, ya, za]`, `fb = [xb, yb, zb]` in body components (the columns of the
 //!   rotation of `Attachment::frame`). Below, `xa, ya, za, xb, yb, zb` and `pa, pb` denote
 //!   the world vectors, `d = pb − pa`.
-//! - Output per row, exactly as documented on [`crate::system::ConstraintEval`]:
+//! - Output per row, exactly as documented on [`crate::contract::system::ConstraintEval`]:
 //!   holonomic rows: `phi = Φ`, `jac = B`, `bias = ∂Φ/∂t`, `gamma = c` with
 //!   `B u̇' = c ⇔ Φ̈ = 0`, i.e. `Φ̈ = B u̇' − gamma` (notes A eq. 6, corrected);
 //!   nonholonomic rows (last in a joint): `phi = B u̇ + b`, `bias = b`,
@@ -79,62 +79,11 @@
 //! can emit one `const JointGeom` per joint and call the same functions; the interpreter
 //! dispatches to them through a `match` on the kind. No kernel allocates.
 
-use crate::fn1::Jet2;
-use crate::math::{rotation, vec3};
-use crate::scene::Attachment;
-use crate::system::{ConstraintEval, Need, Pose, RowJac, Twist};
+pub use crate::contract::joint_geom::JointGeom;
+use crate::contract::math::vec3;
+use crate::contract::system::{ConstraintEval, Need, Pose, RowJac, Twist};
+use crate::kernels::fn1::Jet2;
 use nalgebra::{Matrix3, Vector3};
-
-/// Geometry of one joint, constructible in a `const`/`static` (plain arrays only).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct JointGeom {
-    /// Attachment point on side a: body-a components relative to its mass centre (world
-    /// for ground), m.
-    pub pa: [f64; 3],
-    /// Attachment point on side b, m.
-    pub pb: [f64; 3],
-    /// Joint-frame axes of side a in body-a components: `[x, y, z]`; `z` is the joint axis.
-    pub fa: [[f64; 3]; 3],
-    /// Joint-frame axes of side b in body-b components: `[x, y, z]`.
-    pub fb: [[f64; 3]; 3],
-    /// Joint frame of side a as a unit quaternion `[w, x, y, z]` (joint → body a).
-    pub qa: [f64; 4],
-    /// Joint frame of side b as a unit quaternion (joint → body b).
-    pub qb: [f64; 4],
-    /// Scalar parameter: length `L` (distance), radius `R` (rolling); 0 otherwise.
-    pub param: f64,
-}
-
-impl JointGeom {
-    /// Geometry from two attachments (frames normalised; axes are the columns of the
-    /// frame rotation) and the kind's scalar parameter.
-    pub fn new(a: &Attachment, b: &Attachment, param: f64) -> JointGeom {
-        let (qa, fa) = frame_axes(&a.frame);
-        let (qb, fb) = frame_axes(&b.frame);
-        JointGeom {
-            pa: a.point,
-            pb: b.point,
-            fa,
-            fb,
-            qa,
-            qb,
-            param,
-        }
-    }
-}
-
-/// Normalised frame quaternion and its axes `[x, y, z]` (columns of its rotation).
-fn frame_axes(q: &[f64; 4]) -> ([f64; 4], [[f64; 3]; 3]) {
-    let n = (q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]).sqrt();
-    let q = if n > 0.0 && n.is_finite() {
-        [q[0] / n, q[1] / n, q[2] / n, q[3] / n]
-    } else {
-        [1.0, 0.0, 0.0, 0.0]
-    };
-    let c = rotation(&crate::math::quat(q));
-    let col = |j: usize| [c[(0, j)], c[(1, j)], c[(2, j)]];
-    (q, [col(0), col(1), col(2)])
-}
 
 /// The row slices of one joint in a [`ConstraintEval`].
 #[derive(Debug)]
@@ -779,8 +728,8 @@ pub fn curve<F: Fn(f64) -> Jet2>(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::math::{axis_angle, quat_array};
-    use crate::scene::BodyRef;
+    use crate::contract::math::{axis_angle, quat_array};
+    use crate::contract::scene::{Attachment, BodyRef};
     use nalgebra::Quaternion;
 
     fn att(body: BodyRef, point: [f64; 3], frame: Quaternion<f64>) -> Attachment {
@@ -854,7 +803,7 @@ mod tests {
             Need::ALL,
             JointOut::new(&mut ev, 0, 3),
         );
-        let m = pose.c * crate::math::skew(&vec3(&rho));
+        let m = pose.c * crate::contract::math::skew(&vec3(&rho));
         for k in 0..3 {
             for j in 0..3 {
                 assert!((ev.jac[k].b[3 + j] - m[(k, j)]).abs() < 1e-15);

@@ -23,11 +23,11 @@ use std::process::ExitCode;
 use std::time::{Duration, Instant};
 
 use crate::compiled::{self, CompiledModel};
+use crate::contract::scene::{MethodSpec, Scene};
+use crate::contract::system::System;
+use crate::driver::output::RunMeta;
+use crate::driver::run_loop::{self, Frame, Observer, OnFailure, RunConfig, Watchdog};
 use crate::integrators::State;
-use crate::output::RunMeta;
-use crate::run::{self, Frame, Observer, OnFailure, RunConfig, Watchdog};
-use crate::scene::{MethodSpec, Scene};
-use crate::system::System;
 
 /// Prefix of the machine-readable lines written with `--progress`.
 pub const PROTOCOL: &str = "@mbdc ";
@@ -51,14 +51,14 @@ pub struct Settings {
 /// Whether a scene has energy sources (applied forces, drivers, prescribed velocities,
 /// contact, time dependence): then the watchdog does not check energy growth.
 pub fn energy_sources(scene: &Scene) -> bool {
-    let e = scene.effects();
+    let e = crate::analysis::effects::Effects::of(scene);
     e.applied_forces || e.drivers || e.nonholonomic || e.contact || e.time_dependence
 }
 
 /// The run configuration of `scene` on `sys` with the user's settings: the same for the
 /// interpreter and compiled code. Refused: a step or duration out of range
-/// ([`crate::limits::check_run`]) and method options out of range
-/// ([`crate::limits::check_method`]).
+/// ([`crate::analysis::input_limits::check_run`]) and method options out of range
+/// ([`crate::analysis::input_limits::check_method`]).
 pub fn run_config<S: System>(sys: &S, scene: &Scene, s: &Settings) -> Result<RunConfig, String> {
     let method = match &s.method {
         Some(name) if name != scene.simulate.method.name() => {
@@ -68,8 +68,8 @@ pub fn run_config<S: System>(sys: &S, scene: &Scene, s: &Settings) -> Result<Run
     };
     let step = s.step.unwrap_or(scene.simulate.step);
     let duration = s.duration.unwrap_or(scene.simulate.duration);
-    crate::limits::check_run(step, duration)?;
-    crate::limits::check_method(&method)?;
+    crate::analysis::input_limits::check_run(step, duration)?;
+    crate::analysis::input_limits::check_method(&method)?;
     Ok(RunConfig {
         duration,
         step,
@@ -80,12 +80,12 @@ pub fn run_config<S: System>(sys: &S, scene: &Scene, s: &Settings) -> Result<Run
         } else {
             OnFailure::Stop
         },
-        watchdog: Watchdog::for_scale(run::length_scale(sys), energy_sources(scene)),
+        watchdog: Watchdog::for_scale(run_loop::length_scale(sys), energy_sources(scene)),
     })
 }
 
 /// The lines `mbdc run --assemble` prints about an assembly.
-pub fn assembly_report(a: &crate::assemble::Assembly) -> Vec<String> {
+pub fn assembly_report(a: &crate::driver::assemble::Assembly) -> Vec<String> {
     let mut v = vec![format!(
         "assembled in {} iteration(s): violation {:.3e} → {:.3e}, velocity residual {:.3e} → {:.3e}",
         a.iterations, a.residual.0, a.residual.1, a.velocity_residual.0, a.velocity_residual.1
@@ -223,7 +223,7 @@ pub fn run_with<M: CompiledModel>(args: &Args) -> ExitCode {
     };
     if args.assemble {
         let mut st = State::initial(&sys);
-        match crate::assemble::assemble(&sys, &mut st.pose, &mut st.twist) {
+        match crate::driver::assemble::assemble(&sys, &mut st.pose, &mut st.twist) {
             Ok(a) => {
                 if !args.quiet {
                     for l in assembly_report(&a) {
@@ -253,7 +253,7 @@ pub fn run_with<M: CompiledModel>(args: &Args) -> ExitCode {
         protocol: args.progress,
         last: Instant::now(),
     };
-    match run::run_to_dir(&sys, &cfg, meta, &scene.simulate.output, &dir, &mut rep) {
+    match run_loop::run_to_dir(&sys, &cfg, meta, &scene.simulate.output, &dir, &mut rep) {
         Ok((report, summary)) => {
             if !args.progress && !args.quiet {
                 println!(

@@ -49,53 +49,9 @@
 use std::collections::VecDeque;
 use std::fmt::Write as _;
 
+use crate::contract::scene::{JointKind, Scene};
+use crate::contract::system::{JointKernel, Layout, RowJac};
 use crate::linalg::{Definiteness, SparseCholesky};
-use crate::scene::{JointKind, Scene};
-use crate::system::{Layout, RowJac};
-
-/// Whether a joint kind can be a tree edge.
-pub fn is_tree_eligible(kind: &JointKind) -> bool {
-    matches!(
-        kind,
-        JointKind::Spherical
-            | JointKind::Revolute
-            | JointKind::Prismatic
-            | JointKind::Cylindrical
-            | JointKind::Universal
-            | JointKind::Fixed
-            | JointKind::Planar
-    )
-}
-
-/// Independent relative velocities a tree joint of this kind leaves free (`None` for the
-/// kinds that are never tree joints): spherical 3, revolute 1, prismatic 1, cylindrical
-/// 2, universal 2, fixed 0, planar 3.
-pub fn joint_dof(kind: &JointKind) -> Option<usize> {
-    Some(match kind {
-        JointKind::Spherical => 3,
-        JointKind::Revolute => 1,
-        JointKind::Prismatic => 1,
-        JointKind::Cylindrical => 2,
-        JointKind::Universal => 2,
-        JointKind::Fixed => 0,
-        JointKind::Planar => 3,
-        _ => return None,
-    })
-}
-
-/// Names of the independent coordinates of a tree joint (joint-frame axes), for reports.
-pub fn joint_coordinates(kind: &JointKind) -> &'static str {
-    match kind {
-        JointKind::Spherical => "3 rotations",
-        JointKind::Revolute => "rotation about z",
-        JointKind::Prismatic => "translation along z",
-        JointKind::Cylindrical => "translation along and rotation about z",
-        JointKind::Universal => "rotations about za and zb",
-        JointKind::Fixed => "none",
-        JointKind::Planar => "translations along x, y and rotation about z",
-        _ => "not a tree joint",
-    }
-}
 
 /// The parent of a body in the spanning forest.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -120,7 +76,7 @@ pub struct TreeJoint {
     /// Whether the joint's side `a` is attached to the parent (else side `b` is, and the
     /// kinematics must be oriented from `b` to `a`).
     pub a_is_parent: bool,
-    /// Independent relative velocities ([`joint_dof`]).
+    /// Independent relative velocities ([`JointKernel::tree_dof`]).
     pub dof: usize,
 }
 
@@ -226,12 +182,12 @@ impl Topology {
     pub fn new(scene: &Scene) -> Topology {
         let n = scene.bodies.len();
         let ground = n;
-        let node = |r: crate::scene::BodyRef| r.index().unwrap_or(ground);
+        let node = |r: crate::contract::scene::BodyRef| r.index().unwrap_or(ground);
         // Adjacency over eligible joints (no self-loops): (neighbour, joint).
         let mut adj: Vec<Vec<(usize, usize)>> = vec![Vec::new(); n + 1];
         let mut extra_joints = Vec::new();
         for (j, joint) in scene.joints.iter().enumerate() {
-            if !is_tree_eligible(&joint.kind) {
+            if !JointKernel::of(&joint.kind).is_tree() {
                 extra_joints.push(j);
                 continue;
             }
@@ -283,7 +239,7 @@ impl Topology {
         } = f;
 
         let cut_joints: Vec<usize> = (0..scene.joints.len())
-            .filter(|&j| is_tree_eligible(&scene.joints[j].kind) && !in_tree[j])
+            .filter(|&j| JointKernel::of(&scene.joints[j].kind).is_tree() && !in_tree[j])
             .collect();
 
         let max_level = level.iter().copied().max().map_or(0, |l| l + 1);
@@ -370,7 +326,7 @@ impl Topology {
     pub fn render(&self, scene: &Scene) -> String {
         let mut s = String::new();
         let bname = |b: usize| scene.bodies.get(b).map_or("?", |x| x.name.as_str());
-        let side = |r: crate::scene::BodyRef| r.index().map_or("ground", bname);
+        let side = |r: crate::contract::scene::BodyRef| r.index().map_or("ground", bname);
         let _ = writeln!(
             s,
             "topology of {}: {} bodies, {} joints ({} tree, {} cut, {} other)",
@@ -391,7 +347,7 @@ impl Topology {
                 j.name,
                 j.kind.keyword(),
                 tj.dof,
-                joint_coordinates(&j.kind)
+                JointKernel::of(&j.kind).coordinates()
             );
         };
         fn walk(
@@ -585,7 +541,9 @@ impl Forest<'_> {
             parent: if u == self.ground { None } else { Some(u) },
             child: v,
             a_is_parent,
-            dof: joint_dof(&joint.kind).expect("tree joints are eligible"),
+            dof: JointKernel::of(&joint.kind)
+                .tree_dof()
+                .expect("tree joints are eligible"),
         });
         self.parent_joint[v] = Some(self.tree_joints.len() - 1);
         if u == self.ground {
@@ -963,7 +921,7 @@ fn group(layout: &Layout, deps: Vec<(usize, Vec<usize>)>) -> Redundancy {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scene::{Attachment, Body, BodyRef, Fn1, Joint, Origin, Simulate};
+    use crate::contract::scene::{Attachment, Body, BodyRef, Fn1, Joint, Origin, Simulate};
 
     fn body(name: &str) -> Body {
         Body {
@@ -1053,7 +1011,7 @@ mod tests {
         let eligible = sc
             .joints
             .iter()
-            .filter(|j| is_tree_eligible(&j.kind))
+            .filter(|j| JointKernel::of(&j.kind).is_tree())
             .count();
         assert_eq!(t.tree_joints.len() + t.cut_joints.len(), eligible);
         assert_eq!(eligible + t.extra_joints.len(), sc.joints.len());
@@ -1409,7 +1367,7 @@ degrees of freedom: 6·3 − 19 holonomic rows = -1 (Grübler); open tree: 4
                 let mut e = 0usize;
                 let mut comps = n + 1;
                 for j in &sc.joints {
-                    if is_tree_eligible(&j.kind) || matches!(j.kind, Distance { .. }) {
+                    if JointKernel::of(&j.kind).is_tree() || matches!(j.kind, Distance { .. }) {
                         e += 1;
                         let a = j.a.body.index().unwrap_or(n);
                         let b = j.b.body.index().unwrap_or(n);

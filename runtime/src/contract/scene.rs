@@ -340,7 +340,7 @@ pub enum ForceKind {
 
 /// A function of one scalar variable (time `t` in s, or a coordinate `x` in m), in SI
 /// units, as an expression tree. Evaluated with its first two derivatives by
-/// [`crate::fn1`].
+/// [`crate::kernels::fn1`].
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub enum Fn1 {
     /// A constant.
@@ -721,7 +721,7 @@ pub enum Factorization {
     Auto,
     /// Always dense (`8 m²` bytes and `m³/3` operations per factorization for `m` rows):
     /// the classic Lagrange-multiplier path, for comparisons. Refused above
-    /// [`crate::limits::MAX_DENSE_UNKNOWNS`] rows.
+    /// [`crate::analysis::input_limits::MAX_DENSE_UNKNOWNS`] rows.
     Dense,
     /// Always sparse (supernodal Cholesky with a fill-reducing ordering).
     Sparse,
@@ -884,56 +884,6 @@ pub struct BodyReference {
     pub orientation: Option<[Fn1; 4]>,
 }
 
-/// The effects a scene uses; the generated code and the interpreter contain only these.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
-pub struct Effects {
-    /// Uniform gravity.
-    pub gravity: bool,
-    /// Point forces and torques.
-    pub applied_forces: bool,
-    /// Anything that depends explicitly on time (forces, drivers, prescribed velocities).
-    pub time_dependence: bool,
-    /// Translational or rotational springs.
-    pub springs: bool,
-    /// Translational or rotational dampers.
-    pub dampers: bool,
-    /// Rheonomic joints (drivers).
-    pub drivers: bool,
-    /// Kinematic loops (more joints than a spanning tree needs).
-    pub closed_loops: bool,
-    /// Nonholonomic constraints.
-    pub nonholonomic: bool,
-    /// Joint locks (rotational springs with a lock angle).
-    pub locks: bool,
-    /// Flexible beams.
-    pub beams: bool,
-    /// Finite-element meshes.
-    pub meshes: bool,
-    /// Contact.
-    pub contact: bool,
-}
-
-impl Effects {
-    /// Names of the effects that are on, in a fixed order.
-    pub fn names(&self) -> Vec<&'static str> {
-        let all = [
-            (self.gravity, "gravity"),
-            (self.applied_forces, "applied_forces"),
-            (self.time_dependence, "time_dependence"),
-            (self.springs, "springs"),
-            (self.dampers, "dampers"),
-            (self.drivers, "drivers"),
-            (self.closed_loops, "closed_loops"),
-            (self.nonholonomic, "nonholonomic"),
-            (self.locks, "locks"),
-            (self.beams, "beams"),
-            (self.meshes, "meshes"),
-            (self.contact, "contact"),
-        ];
-        all.iter().filter(|(on, _)| *on).map(|(_, n)| *n).collect()
-    }
-}
-
 impl Fn1 {
     /// Whether the function is a constant (does not depend on its variable).
     pub fn is_const(&self) -> bool {
@@ -965,66 +915,5 @@ impl Scene {
     /// Total number of constraint rows.
     pub fn constraint_rows(&self) -> usize {
         self.joints.iter().map(|j| j.kind.rows()).sum()
-    }
-
-    /// The effects this scene uses.
-    pub fn effects(&self) -> Effects {
-        let fn_time = |f: &Fn1| !f.is_const();
-        let mut e = Effects {
-            gravity: self.gravity.is_some_and(|g| g.iter().any(|c| *c != 0.0)),
-            beams: !self.beams.is_empty(),
-            meshes: !self.meshes.is_empty(),
-            contact: !self.contacts.is_empty(),
-            ..Effects::default()
-        };
-        for f in &self.forces {
-            match &f.kind {
-                ForceKind::Point { value, .. } | ForceKind::Torque { value, .. } => {
-                    e.applied_forces = true;
-                    e.time_dependence |= value.iter().any(fn_time);
-                }
-                ForceKind::Spring {
-                    stiffness, damping, ..
-                } => {
-                    e.springs |= *stiffness != 0.0;
-                    e.dampers |= *damping != 0.0;
-                }
-                ForceKind::RotationalSpring {
-                    stiffness,
-                    damping,
-                    lock_angle,
-                    ..
-                } => {
-                    e.springs |= *stiffness != 0.0;
-                    e.dampers |= *damping != 0.0;
-                    e.locks |= lock_angle.is_some();
-                }
-            }
-        }
-        for j in &self.joints {
-            if j.kind.nonholonomic_rows() > 0 {
-                e.nonholonomic = true;
-            }
-            if j.kind.is_rheonomic() {
-                e.drivers = true;
-                e.time_dependence = true;
-            }
-        }
-        for m in &self.meshes {
-            for c in &m.conditions {
-                match c {
-                    MeshCondition::Displacement { value, .. } => {
-                        e.time_dependence |= value.iter().flatten().any(fn_time)
-                    }
-                    MeshCondition::NodalLoad { value, .. }
-                    | MeshCondition::Traction { value, .. } => {
-                        e.time_dependence |= value.iter().any(fn_time)
-                    }
-                    _ => {}
-                }
-            }
-        }
-        e.closed_loops = crate::topology::loop_count(self) > 0;
-        e
     }
 }

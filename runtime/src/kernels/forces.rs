@@ -1,5 +1,5 @@
 //! Applied-force kernels: gravity, point forces and torques, translational and rotational
-//! spring–dampers, and their potential energies. Contact is in [`crate::contact`].
+//! spring–dampers, and their potential energies. Contact is in [`crate::kernels::contact`].
 //!
 //! Every kernel returns [`Wrench`]es in the runtime's convention: the force acts at the
 //! mass centre in **world** components, the torque about the mass centre in **body**
@@ -28,9 +28,9 @@
 //!   rotation). This is the exact gradient of the potential `½ k (θ − θ0)²`, so energy is
 //!   conserved even when the joint axes are not perfectly aligned.
 
-use crate::joints::JointGeom;
-use crate::math::{qconj, qmul, quat, rotation, vec3};
-use crate::system::{Pose, Twist, Wrench};
+use crate::contract::math::{qconj, qmul, quat, rotation, vec3};
+use crate::contract::system::{Pose, Twist, Wrench};
+use crate::kernels::joints::JointGeom;
 use nalgebra::{Quaternion, Vector3};
 
 /// `out += w`.
@@ -287,8 +287,8 @@ pub fn rotational_spring_energy(g: &RotSpringGeom, pa: &Pose, pb: &Pose) -> f64 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::math::{axis_angle, quat_array, quat_rate};
-    use crate::scene::{Attachment, BodyRef};
+    use crate::contract::math::{axis_angle, quat_array, quat_rate};
+    use crate::contract::scene::{Attachment, BodyRef};
 
     /// Power of a wrench on a twist: `F·v + t·ω` (both ω and t in body components).
     fn power(w: &Wrench, t: &Twist) -> f64 {
@@ -436,7 +436,7 @@ mod tests {
         let qa = axis_angle(&Vector3::new(0.3, 1.0, -1.0), 1.3);
         let pa = Pose::new(Vector3::zeros(), qa);
         // body b placed so that the joint frames coincide, then rotated about the joint z
-        let z_world = crate::math::rotate(&qmul(&qa, &fa), &Vector3::z());
+        let z_world = crate::contract::math::rotate(&qmul(&qa, &fa), &Vector3::z());
         let q0 = qmul(&qmul(&qa, &fa), &qconj(&fb));
         let pb0 = Pose::new(Vector3::zeros(), q0);
         let s = joint_angle_sign(&g, &pa, &pb0);

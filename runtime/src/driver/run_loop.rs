@@ -19,10 +19,10 @@
 //! the likely cause and what to try. With [`OnFailure::HalveStep`] the run restarts from the
 //! last good frame with half the step, and says so through [`Observer::notice`].
 
-use crate::energy;
+use crate::contract::scene::MethodSpec;
+use crate::contract::system::{ConstraintEval, Need, RowKind, System};
+use crate::driver::energy;
 use crate::integrators::{self, State, StepError};
-use crate::scene::MethodSpec;
-use crate::system::{ConstraintEval, Need, RowKind, System};
 
 /// What to do when the watchdog stops a run.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -105,7 +105,7 @@ pub trait Observer {
     fn notice(&mut self, _message: &str) {}
 }
 
-pub use crate::output::Failure;
+pub use crate::driver::output::Failure;
 
 impl std::fmt::Display for Failure {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
@@ -207,8 +207,8 @@ pub fn length_scale<S: System>(sys: &S) -> f64 {
 /// Run `sys` from its initial state.
 ///
 /// A step that is not positive and finite, a duration that is not finite and ≥ 0, or more
-/// than [`crate::limits::MAX_STEPS`] steps stop the run before its first frame, with a
-/// failure report ([`crate::limits::check_run`]); so does a method that cannot start
+/// than [`crate::analysis::input_limits::MAX_STEPS`] steps stop the run before its first frame, with a
+/// failure report ([`crate::analysis::input_limits::check_run`]); so does a method that cannot start
 /// ([`integrators::make`]).
 pub fn run<S: System>(sys: &S, cfg: &RunConfig, obs: &mut dyn Observer) -> RunReport {
     let layout = sys.layout();
@@ -227,7 +227,7 @@ pub fn run<S: System>(sys: &S, cfg: &RunConfig, obs: &mut dyn Observer) -> RunRe
         max_energy_drift: 0.0,
         stats: Vec::new(),
     };
-    if let Err(cause) = crate::limits::check_run(cfg.step, cfg.duration) {
+    if let Err(cause) = crate::analysis::input_limits::check_run(cfg.step, cfg.duration) {
         report.failure = Some(Failure {
             time: 0.0,
             step: 0,
@@ -561,13 +561,13 @@ fn step_failure<S: System>(sys: &S, e: &StepError, t: f64, step: u64, h: f64) ->
     }
 }
 
-/// Streams the frames of a run into an [`crate::output::OutputWriter`] and forwards
+/// Streams the frames of a run into an [`crate::driver::output::OutputWriter`] and forwards
 /// progress and notices to another observer (a progress bar). A write error is kept and the
 /// run continues in memory; [`run_to_dir`] reports it at the end.
 struct ToWriter<'a> {
-    writer: crate::output::OutputWriter,
+    writer: crate::driver::output::OutputWriter,
     inner: &'a mut dyn Observer,
-    error: Option<crate::output::OutputError>,
+    error: Option<crate::driver::output::OutputError>,
 }
 
 impl Observer for ToWriter<'_> {
@@ -606,12 +606,13 @@ impl Observer for ToWriter<'_> {
 pub fn run_to_dir<S: System>(
     sys: &S,
     cfg: &RunConfig,
-    meta: crate::output::RunMeta,
-    spec: &crate::scene::OutputSpec,
+    meta: crate::driver::output::RunMeta,
+    spec: &crate::contract::scene::OutputSpec,
     dir: &std::path::Path,
     progress: &mut dyn Observer,
-) -> Result<(RunReport, crate::output::Summary), crate::output::OutputError> {
-    let writer = crate::output::OutputWriter::create(dir, sys.layout(), spec, meta.clone())?;
+) -> Result<(RunReport, crate::driver::output::Summary), crate::driver::output::OutputError> {
+    let writer =
+        crate::driver::output::OutputWriter::create(dir, sys.layout(), spec, meta.clone())?;
     let mut obs = ToWriter {
         writer,
         inner: progress,
@@ -619,7 +620,7 @@ pub fn run_to_dir<S: System>(
     };
     let t0 = std::time::Instant::now();
     let report = run(sys, cfg, &mut obs);
-    let mut summary = crate::output::Summary::started(&meta);
+    let mut summary = crate::driver::output::Summary::started(&meta);
     summary.step = report.step;
     summary.steps = report.steps;
     summary.final_time = report.t_end;
@@ -652,8 +653,8 @@ pub fn run_to_dir<S: System>(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::contract::scene::StaggeredOptions;
     use crate::integrators::testsys::RodPendulum;
-    use crate::scene::StaggeredOptions;
 
     struct Count(usize, Vec<String>);
     impl Observer for Count {

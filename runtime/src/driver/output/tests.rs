@@ -3,7 +3,7 @@ use std::io::Read as _;
 use nalgebra::{Matrix3, Quaternion, Vector3};
 
 use super::*;
-use crate::system::{JointLayout, MassProps};
+use crate::contract::system::{JointLayout, MassProps};
 
 /// Two bodies; joint `hinge, a` (ground–b0, 5 holonomic rows), `roll` (b1–ground, 1
 /// holonomic + 2 nonholonomic rows), `lock` (1 row, starts inactive).

@@ -19,8 +19,8 @@
 
 use nalgebra::{Matrix3, Vector3};
 
-use crate::math::{quat, rotation, vec3};
-use crate::scene::{Attachment, BodyRef, ForceKind, Scene};
+use crate::contract::math::{quat, rotation, vec3};
+use crate::contract::scene::{Attachment, BodyRef, ForceKind, Scene};
 
 /// One source of fast motion.
 #[derive(Clone, Debug, PartialEq)]
@@ -57,11 +57,11 @@ impl Estimate {
 }
 
 /// Whether a method integrates the coordinates explicitly (and so has a stability limit).
-pub fn is_explicit(method: &crate::scene::MethodSpec) -> bool {
+pub fn is_explicit(method: &crate::contract::scene::MethodSpec) -> bool {
     !matches!(
         method,
-        crate::scene::MethodSpec::ImplicitTrapezoid { .. }
-            | crate::scene::MethodSpec::StateTime { .. }
+        crate::contract::scene::MethodSpec::ImplicitTrapezoid { .. }
+            | crate::contract::scene::MethodSpec::StateTime { .. }
     )
 }
 
@@ -211,7 +211,7 @@ pub fn estimate(scene: &Scene) -> Estimate {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scene::*;
+    use crate::contract::scene::*;
 
     fn body(name: &str, m: f64, j: f64, w: [f64; 3]) -> Body {
         Body {

@@ -12,12 +12,12 @@
 //! Where each limit is enforced:
 //! - [`crate::interp::Interp::new`]: bodies, joints, force elements, contacts, the depth of
 //!   time functions, and the scene's own step and duration ([`check_run`]);
-//! - [`crate::app::run_config`] and [`crate::run::run`]: step and duration after the
+//! - [`crate::app::run_config`] and [`crate::driver::run_loop::run`]: step and duration after the
 //!   user's overrides ([`check_run`]);
 //! - [`crate::integrators::make`]: the step, the method's options ([`check_method`]), and
 //!   the size of the dense methods.
 
-use crate::scene::MethodSpec;
+use crate::contract::scene::MethodSpec;
 
 /// Most rigid bodies in a scene.
 pub const MAX_BODIES: usize = 1_000_000;
@@ -27,9 +27,8 @@ pub const MAX_JOINTS: usize = 1_000_000;
 pub const MAX_FORCES: usize = 1_000_000;
 /// Most contact pairs in a scene.
 pub const MAX_CONTACTS: usize = 1_000_000;
-/// Deepest time-function expression tree (the compiler nests expressions at most 200
-/// deep; evaluation is recursive, so this bounds the stack it uses).
-pub const MAX_FN_DEPTH: usize = 256;
+/// Deepest time-function expression tree (the kernel's own bound, [`crate::kernels::fn1::MAX_FN_DEPTH`]).
+pub use crate::kernels::fn1::MAX_FN_DEPTH;
 /// Most steps of one run (`duration / step`). At the fastest, a microsecond per step,
 /// this is eleven days of computing.
 pub const MAX_STEPS: f64 = 1e12;

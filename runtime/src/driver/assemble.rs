@@ -15,9 +15,9 @@
 
 use nalgebra::Vector3;
 
+use crate::contract::system::{ConstraintEval, Layout, Need, Pose, RowKind, System, Twist, Wrench};
 use crate::integrators::common::{self, accel};
 use crate::linalg::{Backend, Definiteness, KSolver, KSolverOptions, DEFAULT_PIVOT_TOL};
-use crate::system::{ConstraintEval, Layout, Need, Pose, RowKind, System, Twist, Wrench};
 
 /// What assembly changed, per body.
 #[derive(Clone, Debug, PartialEq)]

@@ -34,9 +34,9 @@
 //! Normals and shapes are body-fixed: the plane's normal and point, the box axes and the
 //! sphere centres are given in body components (world for ground).
 
-use crate::forces::add_wrench;
-use crate::math::vec3;
-use crate::system::{Pose, Twist, Wrench};
+use crate::contract::math::vec3;
+use crate::contract::system::{Pose, Twist, Wrench};
+use crate::kernels::forces::add_wrench;
 use nalgebra::Vector3;
 
 /// Default friction regularization speed, m/s.
@@ -255,7 +255,7 @@ pub fn box_plane_energy(g: &BoxPlane, pa: &Pose, pb: &Pose) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::math::axis_angle;
+    use crate::contract::math::axis_angle;
 
     const LAW: ContactLaw = ContactLaw {
         stiffness: 1e4,
@@ -437,7 +437,7 @@ mod tests {
         let step = |s: f64| {
             Pose::new(
                 pa.r + tw.v * s,
-                pa.q + crate::math::quat_rate(&pa.q, &tw.w) * s,
+                pa.q + crate::contract::math::quat_rate(&pa.q, &tw.w) * s,
             )
         };
         let z = Twist::default();

@@ -5,7 +5,7 @@
 //!
 //! For a tree joint with parent body `p` (the ground: identity pose, zero twist) and child
 //! body `c`, the child's twist `u_c = (v_c, w_c)` (`v` world, `w` body components, as in
-//! [`crate::system`]) is
+//! [`crate::contract::system`]) is
 //!
 //! ```text
 //! u_c = X u_p + S q̇,          u̇_c' = X u̇_p' + S q̈ + κ,
@@ -41,7 +41,7 @@
 //! joint point: for the point joints each body's own attachment point; for the
 //! translational joints both go to `pb`, the material point of side b.
 //!
-//! **Exactness.** With these relations every row of the joint kernels ([`crate::joints`])
+//! **Exactness.** With these relations every row of the joint kernels ([`crate::kernels::joints`])
 //! vanishes on `S` and on `X u_p` identically, at *any* configuration, violated or not:
 //! the point rows because `ṗ_c = ṗ_p` by construction, the dot-1 rows `e_a·e_b` because
 //! the relative rotation is about an axis perpendicular to `e_a × e_b`, the dot-2 rows
@@ -69,106 +69,30 @@
 //! point or line or plane condition. Applied root → leaf after each coordinate update it
 //! keeps the tree constraints at round-off.
 //!
-//! # Use by generated code
+//! # Who calls them
 //!
-//! The functions [`spherical`], [`revolute`], ..., [`planar`] and [`project`] take a
-//! `const`-constructible [`JointGeom`], so generated code can call the one for each tree
-//! joint's kind directly from its [`System::tree_joint_kinematics`] and
-//! [`System::tree_joint_project`] (see there); the interpreter goes through
-//! [`tree_joint`] and a `match` on the kind.
-//!
-//! [`System::tree_joint_kinematics`]: crate::system::System::tree_joint_kinematics
-//! [`System::tree_joint_project`]: crate::system::System::tree_joint_project
+//! Natural partitioning (`integrators::natural`) asks the system for each tree joint's
+//! kernel and geometry ([`System::tree_joint`](crate::contract::system::System::tree_joint),
+//! implemented alike by the interpreter and generated code) and calls [`tree_joint`] and
+//! [`project`], which dispatch on the [`JointKernel`] to the per-kind functions
+//! [`spherical`], [`revolute`], …, [`planar`].
 
 use nalgebra::{Matrix2, Matrix3, Quaternion, Vector3};
 
-use crate::joints::JointGeom;
-use crate::math::{qconj, qmul, quat, skew, vec3};
-use crate::system::{Pose, Twist, Wrench};
+use crate::contract::math::{qconj, qmul, quat, skew, vec3};
+use crate::contract::system::{JointGeom, JointKernel};
+use crate::contract::system::{Pose, Twist, Wrench};
 
-/// The joint kinds that can be edges of the spanning tree (see
-/// [`crate::topology::is_tree_eligible`]).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum TreeJointKind {
-    /// Point coincidence, 3 rotations free.
-    Spherical,
-    /// Rotation about the common z axis.
-    Revolute,
-    /// Translation along z.
-    Prismatic,
-    /// Translation along and rotation about z.
-    Cylindrical,
-    /// Rotations about `za` and `zb` (cross axes).
-    Universal,
-    /// No relative motion.
-    Fixed,
-    /// Translations in the x–y plane of side a, rotation about z.
-    Planar,
-}
-
-impl TreeJointKind {
-    /// The kind of a joint keyword (as in [`crate::system::JointLayout::kind`]); `None` for
-    /// the kinds that are never tree joints.
-    pub fn from_keyword(k: &str) -> Option<TreeJointKind> {
-        Some(match k {
-            "spherical" => TreeJointKind::Spherical,
-            "revolute" => TreeJointKind::Revolute,
-            "prismatic" => TreeJointKind::Prismatic,
-            "cylindrical" => TreeJointKind::Cylindrical,
-            "universal" => TreeJointKind::Universal,
-            "fixed" => TreeJointKind::Fixed,
-            "planar" => TreeJointKind::Planar,
-            _ => return None,
-        })
-    }
-
-    /// The keyword.
-    pub fn keyword(self) -> &'static str {
-        match self {
-            TreeJointKind::Spherical => "spherical",
-            TreeJointKind::Revolute => "revolute",
-            TreeJointKind::Prismatic => "prismatic",
-            TreeJointKind::Cylindrical => "cylindrical",
-            TreeJointKind::Universal => "universal",
-            TreeJointKind::Fixed => "fixed",
-            TreeJointKind::Planar => "planar",
-        }
-    }
-
-    /// Number of independent rates.
-    pub fn dof(self) -> usize {
-        match self {
-            TreeJointKind::Spherical | TreeJointKind::Planar => 3,
-            TreeJointKind::Revolute | TreeJointKind::Prismatic => 1,
-            TreeJointKind::Cylindrical | TreeJointKind::Universal => 2,
-            TreeJointKind::Fixed => 0,
-        }
-    }
-
-    /// Names of the independent rates, in order (for reports).
-    pub fn rate_names(self) -> &'static str {
-        match self {
-            TreeJointKind::Spherical => "ω_x, ω_y, ω_z of the child (body axes)",
-            TreeJointKind::Revolute => "θ̇ about z",
-            TreeJointKind::Prismatic => "ṡ along z",
-            TreeJointKind::Cylindrical => "θ̇ about z, ṡ along z",
-            TreeJointKind::Universal => "θ̇₁ about za, θ̇₂ about zb",
-            TreeJointKind::Fixed => "none",
-            TreeJointKind::Planar => "θ̇ about z, ṡ₁ along x, ṡ₂ along y",
-        }
-    }
-
-    /// Whether the joint's position condition is a point coincidence (else a line or a
-    /// plane through `pa` on which `pb` slides).
-    fn is_point(self) -> bool {
-        matches!(
-            self,
-            TreeJointKind::Spherical
-                | TreeJointKind::Revolute
-                | TreeJointKind::Universal
-                | TreeJointKind::Fixed
-        )
-    }
+/// Whether the joint's position condition is a point coincidence (else a line or a plane
+/// through `pa` on which `pb` slides).
+fn is_point(kind: JointKernel) -> bool {
+    matches!(
+        kind,
+        JointKernel::Spherical
+            | JointKernel::Revolute
+            | JointKernel::Universal
+            | JointKernel::Fixed
+    )
 }
 
 /// The null-space blocks of one tree joint at one configuration (see the module doc):
@@ -559,7 +483,7 @@ pub fn planar(
 
 /// The blocks of a tree joint of kind `kind` (dispatches to the per-kind functions).
 pub fn tree_joint(
-    kind: TreeJointKind,
+    kind: JointKernel,
     g: &JointGeom,
     child_is_b: bool,
     parent: &Pose,
@@ -567,13 +491,18 @@ pub fn tree_joint(
     out: &mut TreeJointKin,
 ) {
     match kind {
-        TreeJointKind::Spherical => spherical(g, child_is_b, parent, child, out),
-        TreeJointKind::Revolute => revolute(g, child_is_b, parent, child, out),
-        TreeJointKind::Prismatic => prismatic(g, child_is_b, parent, child, out),
-        TreeJointKind::Cylindrical => cylindrical(g, child_is_b, parent, child, out),
-        TreeJointKind::Universal => universal(g, child_is_b, parent, child, out),
-        TreeJointKind::Fixed => fixed(g, child_is_b, parent, child, out),
-        TreeJointKind::Planar => planar(g, child_is_b, parent, child, out),
+        JointKernel::Spherical => spherical(g, child_is_b, parent, child, out),
+        JointKernel::Revolute => revolute(g, child_is_b, parent, child, out),
+        JointKernel::Prismatic => prismatic(g, child_is_b, parent, child, out),
+        JointKernel::Cylindrical => cylindrical(g, child_is_b, parent, child, out),
+        JointKernel::Universal => universal(g, child_is_b, parent, child, out),
+        JointKernel::Fixed => fixed(g, child_is_b, parent, child, out),
+        JointKernel::Planar => planar(g, child_is_b, parent, child, out),
+        other => unreachable!(
+            "{} is not a tree joint kind: natural partitioning builds its tree from \
+             JointKernel::is_tree joints only",
+            other.keyword()
+        ),
     }
 }
 
@@ -601,7 +530,7 @@ fn rotate_world(pose: &mut Pose, r: &Quaternion<f64>) {
 /// position constraints (see the module doc). The result satisfies the kernel rows to
 /// round-off when the violation was small.
 pub fn project(
-    kind: TreeJointKind,
+    kind: JointKernel,
     g: &JointGeom,
     child_is_b: bool,
     parent: &Pose,
@@ -609,13 +538,13 @@ pub fn project(
 ) {
     // Orientation.
     match kind {
-        TreeJointKind::Spherical => {}
-        TreeJointKind::Revolute | TreeJointKind::Cylindrical | TreeJointKind::Planar => {
+        JointKernel::Spherical => {}
+        JointKernel::Revolute | JointKernel::Cylindrical | JointKernel::Planar => {
             let zp = parent.c * vec3(if child_is_b { &g.fa[2] } else { &g.fb[2] });
             let zc = child.c * vec3(if child_is_b { &g.fb[2] } else { &g.fa[2] });
             rotate_world(child, &min_rotation(&zc, &zp));
         }
-        TreeJointKind::Universal => {
+        JointKernel::Universal => {
             let zp = parent.c * vec3(if child_is_b { &g.fa[2] } else { &g.fb[2] });
             let zc = child.c * vec3(if child_is_b { &g.fb[2] } else { &g.fa[2] });
             let t = zc - zp * zp.dot(&zc);
@@ -624,7 +553,7 @@ pub fn project(
                 rotate_world(child, &min_rotation(&zc, &(t / n)));
             }
         }
-        TreeJointKind::Prismatic | TreeJointKind::Fixed => {
+        JointKernel::Prismatic | JointKernel::Fixed => {
             // world joint frames equal: q_b ⊗ qb = q_a ⊗ qa
             let (qa, qb) = (quat(g.qa), quat(g.qb));
             let target = if child_is_b {
@@ -640,12 +569,13 @@ pub fn project(
             };
             child.set_q(target);
         }
+        other => unreachable!("{} is not a tree joint kind", other.keyword()),
     }
     // Position.
     let (a, b) = sides(child_is_b, parent, child);
     let pa = a.point(&vec3(&g.pa));
     let pb = b.point(&vec3(&g.pb));
-    let delta = if kind.is_point() {
+    let delta = if is_point(kind) {
         // child point onto parent point
         if child_is_b {
             pa - pb
@@ -655,7 +585,7 @@ pub fn project(
     } else {
         let d = pb - pa;
         let mut off = Vector3::zeros();
-        let along: &[usize] = if kind == TreeJointKind::Planar {
+        let along: &[usize] = if kind == JointKernel::Planar {
             &[2]
         } else {
             &[0, 1]
@@ -677,20 +607,12 @@ pub fn project(
 #[cfg(test)]
 pub(crate) mod tests {
     use super::*;
-    use crate::joints::{self, JointOut};
+    use crate::contract::math::axis_angle;
+    use crate::contract::system::{ConstraintEval, Need, RowJac};
+    use crate::kernels::joints::{self, JointOut};
     use crate::linalg::testutil::Rng;
-    use crate::math::axis_angle;
-    use crate::system::{ConstraintEval, Need, RowJac};
 
-    pub(crate) const KINDS: [TreeJointKind; 7] = [
-        TreeJointKind::Spherical,
-        TreeJointKind::Revolute,
-        TreeJointKind::Prismatic,
-        TreeJointKind::Cylindrical,
-        TreeJointKind::Universal,
-        TreeJointKind::Fixed,
-        TreeJointKind::Planar,
-    ];
+    pub(crate) const KINDS: [JointKernel; 7] = JointKernel::TREE;
 
     pub(crate) fn rvec(rng: &mut Rng, s: f64) -> Vector3<f64> {
         Vector3::new(rng.normal(), rng.normal(), rng.normal()) * s
@@ -704,15 +626,15 @@ pub(crate) mod tests {
     pub(crate) fn random_geom(rng: &mut Rng) -> JointGeom {
         let fa = rquat(rng);
         let fb = rquat(rng);
-        let a = crate::scene::Attachment {
-            body: crate::scene::BodyRef::Body(0),
+        let a = crate::contract::scene::Attachment {
+            body: crate::contract::scene::BodyRef::Body(0),
             point: rvec(rng, 0.5).into(),
-            frame: crate::math::quat_array(&fa),
+            frame: crate::contract::math::quat_array(&fa),
         };
-        let b = crate::scene::Attachment {
-            body: crate::scene::BodyRef::Body(1),
+        let b = crate::contract::scene::Attachment {
+            body: crate::contract::scene::BodyRef::Body(1),
             point: rvec(rng, 0.5).into(),
-            frame: crate::math::quat_array(&fb),
+            frame: crate::contract::math::quat_array(&fb),
         };
         JointGeom::new(&a, &b, 0.0)
     }
@@ -720,7 +642,7 @@ pub(crate) mod tests {
     /// The kernel rows of a tree-eligible joint.
     #[allow(clippy::too_many_arguments)]
     pub(crate) fn kernel(
-        kind: TreeJointKind,
+        kind: JointKernel,
         g: &JointGeom,
         pa: &Pose,
         pb: &Pose,
@@ -729,17 +651,18 @@ pub(crate) mod tests {
         ev: &mut ConstraintEval,
         first: usize,
     ) -> usize {
-        let rows = 6 - kind.dof();
+        let rows = 6 - kind.tree_dof().unwrap();
         let o = JointOut::new(ev, first, rows);
         let n = Need::ALL;
         match kind {
-            TreeJointKind::Spherical => joints::spherical(g, pa, pb, ta, tb, n, o),
-            TreeJointKind::Revolute => joints::revolute(g, pa, pb, ta, tb, n, o),
-            TreeJointKind::Prismatic => joints::prismatic(g, pa, pb, ta, tb, n, o),
-            TreeJointKind::Cylindrical => joints::cylindrical(g, pa, pb, ta, tb, n, o),
-            TreeJointKind::Universal => joints::universal(g, pa, pb, ta, tb, n, o),
-            TreeJointKind::Fixed => joints::fixed(g, pa, pb, ta, tb, n, o),
-            TreeJointKind::Planar => joints::planar(g, pa, pb, ta, tb, n, o),
+            JointKernel::Spherical => joints::spherical(g, pa, pb, ta, tb, n, o),
+            JointKernel::Revolute => joints::revolute(g, pa, pb, ta, tb, n, o),
+            JointKernel::Prismatic => joints::prismatic(g, pa, pb, ta, tb, n, o),
+            JointKernel::Cylindrical => joints::cylindrical(g, pa, pb, ta, tb, n, o),
+            JointKernel::Universal => joints::universal(g, pa, pb, ta, tb, n, o),
+            JointKernel::Fixed => joints::fixed(g, pa, pb, ta, tb, n, o),
+            JointKernel::Planar => joints::planar(g, pa, pb, ta, tb, n, o),
+            other => unreachable!("{other:?} is not a tree kind"),
         }
         rows
     }
@@ -760,7 +683,7 @@ pub(crate) mod tests {
 
     /// One joint at a random (violated) configuration: the kernel rows vanish on `S` and
     /// on `X u_p` (B A = 0), the rates are recovered, and `B κ = γ`.
-    fn check_joint(rng: &mut Rng, kind: TreeJointKind, child_is_b: bool, ground: bool) {
+    fn check_joint(rng: &mut Rng, kind: JointKernel, child_is_b: bool, ground: bool) {
         let g = random_geom(rng);
         let parent = if ground {
             Pose::default()
@@ -770,7 +693,7 @@ pub(crate) mod tests {
         let child = Pose::new(rvec(rng, 1.0), rquat(rng));
         let mut k = TreeJointKin::default();
         tree_joint(kind, &g, child_is_b, &parent, &child, &mut k);
-        assert_eq!(k.dof, kind.dof());
+        assert_eq!(k.dof, kind.tree_dof().unwrap());
         let up = if ground {
             Twist::default()
         } else {

@@ -16,7 +16,7 @@
 //! forces at mass centres and body-frame torques.
 //!
 //! Every [`System`] method then loops over these prebuilt lists without allocating,
-//! calling the same kernels ([`crate::joints`], [`crate::forces`], [`crate::contact`]) that
+//! calling the same kernels ([`crate::kernels::joints`], [`crate::kernels::forces`], [`crate::kernels::contact`]) that
 //! generated code calls.
 //!
 //! Locks: a [`ForceKind::RotationalSpring`] with a `lock_angle` adds the row
@@ -30,17 +30,21 @@
 //! meshes (not part of the rigid-body runtime yet), box–box, sphere–box and plane–plane
 //! contact, bodies with singular or indefinite inertia.
 
-use crate::contact::{self, BoxPlane, ContactLaw, SpherePlane, SphereSphere, FRICTION_REG_SPEED};
-use crate::fn1::{self, Jet2};
-use crate::forces::{self, add_wrench, RotSpringGeom, SpringGeom};
-use crate::joints::{self, JointGeom, JointOut};
-use crate::limits;
-use crate::math::{quat, rotation, vec3};
-use crate::scene::{Attachment, BodyRef, Fn1, ForceFrame, ForceKind, JointKind, Scene, Shape};
-use crate::system::{
-    ConstraintEval, JointLayout, Layout, MassProps, Need, Pose, RowKind, System, TreeJointKind,
+use crate::analysis::input_limits;
+use crate::contract::math::{quat, rotation, vec3};
+use crate::contract::scene::{
+    Attachment, BodyRef, Fn1, ForceFrame, ForceKind, JointKind, Scene, Shape,
+};
+use crate::contract::system::{
+    ConstraintEval, JointKernel, JointLayout, Layout, MassProps, Need, Pose, RowKind, System,
     Twist, Wrench,
 };
+use crate::kernels::contact::{
+    self, BoxPlane, ContactLaw, SpherePlane, SphereSphere, FRICTION_REG_SPEED,
+};
+use crate::kernels::fn1::{self, Jet2};
+use crate::kernels::forces::{self, add_wrench, RotSpringGeom, SpringGeom};
+use crate::kernels::joints::{self, JointGeom, JointOut};
 use nalgebra::{Matrix3, Vector3};
 
 /// Why a scene cannot be interpreted. Every variant names the offending item.
@@ -72,44 +76,17 @@ fn invalid(item: &'static str, name: &str, reason: impl Into<String>) -> InterpE
     }
 }
 
-/// A joint's kernel selector with its time functions (one per [`crate::joints`] kernel).
-#[derive(Clone, Debug, PartialEq)]
-pub enum JointImpl {
-    /// [`joints::spherical`].
-    Spherical,
-    /// [`joints::revolute`].
-    Revolute,
-    /// [`joints::prismatic`].
-    Prismatic,
-    /// [`joints::cylindrical`].
-    Cylindrical,
-    /// [`joints::universal`].
-    Universal,
-    /// [`joints::fixed`].
-    Fixed,
-    /// [`joints::planar`].
-    Planar,
-    /// [`joints::distance_joint`] (length in [`JointGeom::param`]).
-    Distance,
-    /// [`joints::drive_angle`] with the prescribed angle `f(t)`.
-    DriveAngle(Fn1),
-    /// [`joints::drive_displacement`] with the prescribed displacement `f(t)`.
-    DriveDisplacement(Fn1),
-    /// [`joints::rolling`] (radius in [`JointGeom::param`]).
-    Rolling,
-    /// [`joints::point_velocity`] with the prescribed velocity `v(t)`.
-    PointVelocity(Box<[Fn1; 3]>),
-    /// [`joints::curve`] with the curve `y = f(x)`.
-    Curve(Fn1),
-    /// A lock row `sin(θ − angle)` ([`joints::drive_angle`] with a constant angle).
-    Lock(f64),
-}
-
 /// One row group of the interpreter's plan: a scene joint or a lock row.
 #[derive(Clone, Debug, PartialEq)]
 pub struct JointEntry {
-    /// Which kernel, with its time functions.
-    pub kind: JointImpl,
+    /// Which kernel evaluates the rows.
+    pub kernel: JointKernel,
+    /// The kernel's time functions ([`JointKernel::time_functions`] of them): the prescribed
+    /// angle or displacement of a driver, the three components of a point velocity, the
+    /// curve `y = f(x)`; empty for the other kernels.
+    pub fns: Vec<Fn1>,
+    /// The angle of a lock row ([`JointKernel::Lock`]), rad; 0 for the other kernels.
+    pub lock_angle: f64,
     /// Geometry passed to the kernel.
     pub geom: JointGeom,
     /// Body of side a (`None`: ground).
@@ -315,10 +292,14 @@ fn inverse_ok(j: &Matrix3<f64>, j_inv: &Matrix3<f64>) -> bool {
 fn check_scene(scene: &Scene) -> Result<(), InterpError> {
     let scene_err = |reason: String| invalid("scene", &scene.name, reason);
     for (what, n, max) in [
-        ("bodies", scene.bodies.len(), limits::MAX_BODIES),
-        ("joints", scene.joints.len(), limits::MAX_JOINTS),
-        ("force elements", scene.forces.len(), limits::MAX_FORCES),
-        ("contacts", scene.contacts.len(), limits::MAX_CONTACTS),
+        ("bodies", scene.bodies.len(), input_limits::MAX_BODIES),
+        ("joints", scene.joints.len(), input_limits::MAX_JOINTS),
+        (
+            "force elements",
+            scene.forces.len(),
+            input_limits::MAX_FORCES,
+        ),
+        ("contacts", scene.contacts.len(), input_limits::MAX_CONTACTS),
     ] {
         if n > max {
             return Err(scene_err(format!(
@@ -327,8 +308,9 @@ fn check_scene(scene: &Scene) -> Result<(), InterpError> {
         }
     }
     let sim = &scene.simulate;
-    limits::check_run(sim.step, sim.duration).map_err(|e| scene_err(format!("simulate: {e}")))?;
-    limits::check_method(&sim.method).map_err(|e| scene_err(format!("simulate: {e}")))?;
+    input_limits::check_run(sim.step, sim.duration)
+        .map_err(|e| scene_err(format!("simulate: {e}")))?;
+    input_limits::check_method(&sim.method).map_err(|e| scene_err(format!("simulate: {e}")))?;
     if let Some(r) = &scene.reference {
         let nb = scene.bodies.len();
         for b in &r.bodies {
@@ -490,14 +472,8 @@ impl Interp {
                 }
             };
             let mut param = 0.0;
-            let kind = match &j.kind {
-                JointKind::Spherical => JointImpl::Spherical,
-                JointKind::Revolute => JointImpl::Revolute,
-                JointKind::Prismatic => JointImpl::Prismatic,
-                JointKind::Cylindrical => JointImpl::Cylindrical,
-                JointKind::Universal => JointImpl::Universal,
-                JointKind::Fixed => JointImpl::Fixed,
-                JointKind::Planar => JointImpl::Planar,
+            let mut fns = Vec::new();
+            match &j.kind {
                 JointKind::Distance { length } => {
                     if !(length.is_finite() && *length > 0.0) {
                         return Err(invalid(
@@ -507,12 +483,11 @@ impl Interp {
                         ));
                     }
                     param = *length;
-                    JointImpl::Distance
                 }
                 JointKind::DriveAngle { joint, angle } => {
                     driven(*joint, &["revolute", "cylindrical"], "angle driver")?;
                     check_fn("joint", name, angle)?;
-                    JointImpl::DriveAngle(angle.clone())
+                    fns.push(angle.clone());
                 }
                 JointKind::DriveDisplacement {
                     joint,
@@ -520,7 +495,7 @@ impl Interp {
                 } => {
                     driven(*joint, &["prismatic", "cylindrical"], "displacement driver")?;
                     check_fn("joint", name, displacement)?;
-                    JointImpl::DriveDisplacement(displacement.clone())
+                    fns.push(displacement.clone());
                 }
                 JointKind::Rolling { radius } => {
                     if !(radius.is_finite() && *radius > 0.0) {
@@ -532,24 +507,35 @@ impl Interp {
                     }
                     ground_b("rolling (the plane)")?;
                     param = *radius;
-                    JointImpl::Rolling
                 }
                 JointKind::PointVelocity { velocity } => {
                     ground_b("point velocity")?;
                     for f in velocity {
                         check_fn("joint", name, f)?;
                     }
-                    JointImpl::PointVelocity(Box::new(velocity.clone()))
+                    fns.extend(velocity.iter().cloned());
                 }
                 JointKind::Curve { curve } => {
                     check_fn("joint", name, curve)?;
-                    JointImpl::Curve(curve.clone())
+                    fns.push(curve.clone());
                 }
-            };
+                JointKind::Spherical
+                | JointKind::Revolute
+                | JointKind::Prismatic
+                | JointKind::Cylindrical
+                | JointKind::Universal
+                | JointKind::Fixed
+                | JointKind::Planar => {}
+            }
+            let kernel = JointKernel::of(&j.kind);
+            debug_assert_eq!(fns.len(), kernel.time_functions());
+
             let rows = j.kind.rows();
             let nh = j.kind.nonholonomic_rows();
             joints.push(JointEntry {
-                kind,
+                kernel,
+                fns,
+                lock_angle: 0.0,
                 geom: JointGeom::new(&j.a, &j.b, param),
                 a,
                 b,
@@ -726,7 +712,9 @@ impl Interp {
             l.row = row;
             jl[l.joint].first_row = row;
             joints.push(JointEntry {
-                kind: JointImpl::Lock(l.angle),
+                kernel: JointKernel::Lock,
+                fns: Vec::new(),
+                lock_angle: l.angle,
                 geom: l.geom,
                 a: l.a,
                 b: l.b,
@@ -891,7 +879,7 @@ impl Interp {
         })
     }
 
-    /// Replace the initial state (e.g. by an assembled one, [`crate::assemble`]).
+    /// Replace the initial state (e.g. by an assembled one, [`crate::driver::assemble`]).
     ///
     /// # Panics
     /// If the slices do not have one entry per body.
@@ -1067,35 +1055,35 @@ impl System for Interp {
             let (ta, tb) = (self.twist(j.a, twist), self.twist(j.b, twist));
             let g = &j.geom;
             let o = JointOut::new(out, j.first, j.rows);
-            match &j.kind {
-                JointImpl::Spherical => joints::spherical(g, pa, pb, ta, tb, need, o),
-                JointImpl::Revolute => joints::revolute(g, pa, pb, ta, tb, need, o),
-                JointImpl::Prismatic => joints::prismatic(g, pa, pb, ta, tb, need, o),
-                JointImpl::Cylindrical => joints::cylindrical(g, pa, pb, ta, tb, need, o),
-                JointImpl::Universal => joints::universal(g, pa, pb, ta, tb, need, o),
-                JointImpl::Fixed => joints::fixed(g, pa, pb, ta, tb, need, o),
-                JointImpl::Planar => joints::planar(g, pa, pb, ta, tb, need, o),
-                JointImpl::Distance => joints::distance_joint(g, pa, pb, ta, tb, need, o),
-                JointImpl::DriveAngle(f) => {
-                    joints::drive_angle(g, fn1::eval(f, t), pa, pb, ta, tb, need, o)
+            match j.kernel {
+                JointKernel::Spherical => joints::spherical(g, pa, pb, ta, tb, need, o),
+                JointKernel::Revolute => joints::revolute(g, pa, pb, ta, tb, need, o),
+                JointKernel::Prismatic => joints::prismatic(g, pa, pb, ta, tb, need, o),
+                JointKernel::Cylindrical => joints::cylindrical(g, pa, pb, ta, tb, need, o),
+                JointKernel::Universal => joints::universal(g, pa, pb, ta, tb, need, o),
+                JointKernel::Fixed => joints::fixed(g, pa, pb, ta, tb, need, o),
+                JointKernel::Planar => joints::planar(g, pa, pb, ta, tb, need, o),
+                JointKernel::Distance => joints::distance_joint(g, pa, pb, ta, tb, need, o),
+                JointKernel::DriveAngle => {
+                    joints::drive_angle(g, fn1::eval(&j.fns[0], t), pa, pb, ta, tb, need, o)
                 }
-                JointImpl::DriveDisplacement(f) => {
-                    joints::drive_displacement(g, fn1::eval(f, t), pa, pb, ta, tb, need, o)
+                JointKernel::DriveDisplacement => {
+                    joints::drive_displacement(g, fn1::eval(&j.fns[0], t), pa, pb, ta, tb, need, o)
                 }
-                JointImpl::Rolling => joints::rolling(g, pa, pb, ta, tb, need, o),
-                JointImpl::PointVelocity(v) => {
+                JointKernel::Rolling => joints::rolling(g, pa, pb, ta, tb, need, o),
+                JointKernel::PointVelocity => {
                     let v = [
-                        fn1::eval(&v[0], t),
-                        fn1::eval(&v[1], t),
-                        fn1::eval(&v[2], t),
+                        fn1::eval(&j.fns[0], t),
+                        fn1::eval(&j.fns[1], t),
+                        fn1::eval(&j.fns[2], t),
                     ];
                     joints::point_velocity(g, v, pa, pb, ta, tb, need, o)
                 }
-                JointImpl::Curve(f) => {
-                    joints::curve(g, |x| fn1::eval(f, x), pa, pb, ta, tb, need, o)
+                JointKernel::Curve => {
+                    joints::curve(g, |x| fn1::eval(&j.fns[0], x), pa, pb, ta, tb, need, o)
                 }
-                JointImpl::Lock(angle) => {
-                    joints::drive_angle(g, Jet2::constant(*angle), pa, pb, ta, tb, need, o)
+                JointKernel::Lock => {
+                    joints::drive_angle(g, Jet2::constant(j.lock_angle), pa, pb, ta, tb, need, o)
                 }
             }
         }
@@ -1131,19 +1119,9 @@ impl System for Interp {
         e
     }
 
-    fn tree_joint(&self, joint: usize) -> Option<(TreeJointKind, &JointGeom)> {
+    fn tree_joint(&self, joint: usize) -> Option<(JointKernel, &JointGeom)> {
         let j = self.joints.get(joint)?;
-        let kind = match j.kind {
-            JointImpl::Spherical => TreeJointKind::Spherical,
-            JointImpl::Revolute => TreeJointKind::Revolute,
-            JointImpl::Prismatic => TreeJointKind::Prismatic,
-            JointImpl::Cylindrical => TreeJointKind::Cylindrical,
-            JointImpl::Universal => TreeJointKind::Universal,
-            JointImpl::Fixed => TreeJointKind::Fixed,
-            JointImpl::Planar => TreeJointKind::Planar,
-            _ => return None,
-        };
-        Some((kind, &j.geom))
+        j.kernel.is_tree().then_some((j.kernel, &j.geom))
     }
 
     fn update_locks(&self, pose: &[Pose], _twist: &[Twist], active: &mut [bool]) -> Option<usize> {
@@ -1177,7 +1155,7 @@ pub const IDENTITY: [f64; 4] = [1.0, 0.0, 0.0, 0.0];
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scene::{Body, Force, Joint, Origin, Simulate};
+    use crate::contract::scene::{Body, Force, Joint, Origin, Simulate};
 
     fn body(name: &str) -> Body {
         Body {

@@ -20,7 +20,12 @@
 //! The Jacobi elliptic functions [`sncndn`] (parameter `m = k²`) and the complete elliptic
 //! integral [`ellipk`] are public so that the compiler can constant-fold them.
 
-use crate::scene::{Fn1, UnaryFn};
+use crate::contract::scene::{Fn1, UnaryFn};
+
+/// Deepest time-function expression tree (the compiler nests expressions at most 200
+/// deep; evaluation is recursive, so this bounds the stack it uses).
+pub const MAX_FN_DEPTH: usize = 256;
+
 use std::ops::{Add, Div, Mul, Neg, Sub};
 
 /// A value with its first and second derivative with respect to one variable.
@@ -451,14 +456,14 @@ pub fn unary(u: UnaryFn, a: Jet2) -> Jet2 {
 
 /// Check that `f` can be evaluated: tables non-empty with strictly increasing `x`,
 /// finite constants and parameters, elliptic parameters in `[0, 1]`, and the tree at most
-/// [`crate::limits::MAX_FN_DEPTH`] deep (evaluation is recursive). Returns a description
+/// [`MAX_FN_DEPTH`] deep (evaluation is recursive). Returns a description
 /// of the first problem.
 pub fn validate(f: &Fn1) -> Result<(), String> {
     validate_at(f, 1)
 }
 
 fn validate_at(f: &Fn1, depth: usize) -> Result<(), String> {
-    let max = crate::limits::MAX_FN_DEPTH;
+    let max = MAX_FN_DEPTH;
     if depth > max {
         return Err(format!(
             "the expression is nested too deeply (more than {max} levels)"

@@ -1,0 +1,19 @@
+//! Floor 3, analysis: what can be known about a scene before it runs.
+//!
+//! - [`topology`]: the joint graph — spanning tree, cut joints, branches, levels, degrees of
+//!   freedom, redundant joints (rank of the constraint Jacobian at t = 0).
+//! - [`coordinates`]: the independent coordinates natural partitioning uses, per tree joint
+//!   (what `mbdc check --topology` prints).
+//! - [`effects`]: the effects a scene uses (gravity, springs, contact, closed loops, …): the
+//!   interpreter and the generated code contain only these.
+//! - [`step_limits`]: the fastest motion of a scene and the step limits it sets (explicit
+//!   stability `h·ω_max ≤ 2`, 20 steps per period for accuracy).
+//! - [`input_limits`]: the sizes and values the runtime accepts, checked before a run.
+//!
+//! Imports the contract, the kernels and linear algebra; knows no integrator and no writer.
+
+pub mod coordinates;
+pub mod effects;
+pub mod input_limits;
+pub mod step_limits;
+pub mod topology;

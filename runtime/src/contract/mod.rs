@@ -1,0 +1,20 @@
+//! Floor 0, the contract: what a scene is and what the numerics may ask of it.
+//!
+//! - [`scene`]: the `Scene` data model, plain serde data in SI units (what the compiler
+//!   produces and the interpreter and generated code read).
+//! - [`system`]: the `System` trait and its plain data types (`Pose`, `Twist`, `Wrench`,
+//!   `MassProps`, `Layout`, `ConstraintEval`, …), the contract between a scene (interpreted
+//!   or generated) and the integrators, solvers and writers.
+//! - [`joint_geom`]: the constant geometry of one joint (`JointGeom`), and
+//!   [`joint_kernel`]: the one enum of joint kernels (`JointKernel`) that the interpreter,
+//!   the compiled tables, the code generator and natural partitioning share.
+//! - [`math`]: rotation math (Euler parameters, rotation matrices, the Cayley update).
+//!
+//! **Imports nothing else of the crate.** Everything above builds on these types; nothing
+//! here may know a kernel, an integrator or a writer.
+
+pub mod joint_geom;
+pub mod joint_kernel;
+pub mod math;
+pub mod scene;
+pub mod system;

@@ -1,0 +1,16 @@
+//! Floor 5, the driver: running a `System` with an integrator from start to end.
+//!
+//! - [`run_loop`]: the run loop and its watchdog (stops a run that goes wrong, naming the
+//!   body or joint and the time), frames streamed to observers.
+//! - [`output`]: the writers (CSV time series, `summary.json`).
+//! - [`assemble`]: assembly of a consistent initial state (Newton on the position and
+//!   velocity constraints).
+//! - [`energy`]: kinetic energy and momenta of a state.
+//!
+//! Imports every floor below (contract, kernels, linalg, analysis, integrators); knows
+//! neither the interpreter nor generated code: it drives any `System`.
+
+pub mod assemble;
+pub mod energy;
+pub mod output;
+pub mod run_loop;

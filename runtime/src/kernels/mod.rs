@@ -1,0 +1,20 @@
+//! Floor 1, the kernels: pure functions that evaluate one element of a scene at one
+//! configuration, into caller-owned buffers. They know the contract (floor 0) and nothing
+//! above it: no integrator, no solver, no writer.
+//!
+//! - [`joints`]: the constraint rows of every joint kind (value, Jacobian, velocity and
+//!   acceleration terms).
+//! - [`tree_joints`]: the null-space blocks of tree joints (`u_c = X u_p + S q̇`) and their
+//!   position projection, for natural partitioning.
+//! - [`forces`]: applied forces (gravity, springs, dampers, actuators) and their energy.
+//! - [`contact`]: penalty contact laws (sphere–plane, sphere–sphere, box–plane).
+//! - [`fn1`]: time functions (`f(t)` trees) with their first two derivatives.
+//!
+//! Where new element kernels go: a flexible-beam element's internal force is a kernel here
+//! (`beam_element.rs`), and so is a solid element's (`solid_element.rs`).
+
+pub mod contact;
+pub mod fn1;
+pub mod forces;
+pub mod joints;
+pub mod tree_joints;
