@@ -8,10 +8,10 @@
 //! derive) and a `run(args) -> ExitCode` function; add a variant to [`Command`] to add one.
 
 mod commands;
-mod compiled;
 mod plot;
 mod render;
-mod stability;
+mod scene_crate;
+mod step_gate;
 
 use std::process::ExitCode;
 

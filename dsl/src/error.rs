@@ -47,9 +47,9 @@ impl ParseError {
     /// Line and column are 1-based; columns count characters. `src` must be the text that
     /// was parsed (offsets outside it are clamped).
     pub fn render(&self, src: &str) -> String {
-        let start = crate::lexer::floor_char_boundary(src, self.span.start.min(src.len()));
-        let end = crate::lexer::floor_char_boundary(src, self.span.end.clamp(start, src.len()));
-        let (line, col) = crate::lexer::line_col(src, start);
+        let start = crate::offsets::floor_char_boundary(src, self.span.start.min(src.len()));
+        let end = crate::offsets::floor_char_boundary(src, self.span.end.clamp(start, src.len()));
+        let (line, col) = crate::offsets::line_col(src, start);
         let line_start = src[..start].rfind('\n').map_or(0, |p| p + 1);
         let line_end = src[start..].find('\n').map_or(src.len(), |p| p + start);
         let text = src[line_start..line_end].trim_end_matches('\r');

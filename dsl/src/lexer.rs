@@ -16,6 +16,7 @@
 
 use crate::ast::{Comment, Span};
 use crate::error::ParseError;
+use crate::offsets::line_col;
 use crate::MAX_NESTING;
 
 /// The result of the pre-pass.
@@ -309,23 +310,6 @@ fn starts_word(bytes: &[u8], i: usize, word: &[u8]) -> bool {
         && !bytes
             .get(i + word.len())
             .is_some_and(|c| c.is_ascii_alphanumeric() || *c == b'_')
-}
-
-/// 1-based line and column (in characters) of a byte offset.
-pub(crate) fn line_col(src: &str, offset: usize) -> (usize, usize) {
-    let offset = floor_char_boundary(src, offset.min(src.len()));
-    let before = &src[..offset];
-    let line = before.bytes().filter(|&b| b == b'\n').count() + 1;
-    let line_start = before.rfind('\n').map_or(0, |p| p + 1);
-    let col = src[line_start..offset].chars().count() + 1;
-    (line, col)
-}
-
-pub(crate) fn floor_char_boundary(src: &str, mut i: usize) -> usize {
-    while i > 0 && !src.is_char_boundary(i) {
-        i -= 1;
-    }
-    i
 }
 
 /// Indentation (in bytes of spaces/tabs) of the line containing `offset`, and whether

@@ -47,6 +47,7 @@ pub mod ast;
 mod error;
 mod format;
 mod lexer;
+mod offsets;
 mod parser;
 mod strip;
 

@@ -1451,7 +1451,7 @@ fn found_at(text: &str, pos: usize) -> (String, Span, TokKind) {
             ("a string".into(), Span::new(pos, end), TokKind::Other)
         }
         _ => {
-            let start = crate::lexer::floor_char_boundary(text, pos);
+            let start = crate::offsets::floor_char_boundary(text, pos);
             let c = text[start..].chars().next().unwrap_or(' ');
             let two = text
                 .get(start..start + 2)
@@ -1531,7 +1531,7 @@ fn prev_token(text: &str, pos: usize) -> Option<(String, usize, TokKind)> {
     if last == b'"' {
         return Some(("the string".into(), end - 1, TokKind::Other));
     }
-    let start = crate::lexer::floor_char_boundary(text, end - 1);
+    let start = crate::offsets::floor_char_boundary(text, end - 1);
     if start >= 1 {
         if let Some(t) = text
             .get(start - 1..end)

@@ -56,20 +56,20 @@ pub fn run(args: Args) -> ExitCode {
         Err(code) => return code,
     };
     let Some(out) = &args.emit else {
-        let krate = match crate::compiled::prepare(&scene) {
+        let krate = match crate::scene_crate::prepare(&scene) {
             Ok(c) => c,
             Err(e) => {
                 eprintln!("error: {e}");
                 return ExitCode::FAILURE;
             }
         };
-        return match crate::compiled::build(&krate, args.quiet) {
+        return match crate::scene_crate::build(&krate, args.quiet) {
             Ok(p) => {
                 println!("{}", p.display());
                 ExitCode::SUCCESS
             }
             Err(f) => {
-                crate::compiled::report_build_failure(&f, &krate);
+                crate::scene_crate::report_build_failure(&f, &krate);
                 ExitCode::FAILURE
             }
         };

@@ -8,7 +8,7 @@
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-use crate::plot::{self, data, run::RunPlotOptions};
+use crate::plot::{self, data, run_plots::RunPlotOptions};
 
 /// Arguments of `mbdc plot`.
 #[derive(Debug, clap::Args)]
@@ -73,7 +73,7 @@ fn plot_dir(args: &Args) -> Result<(), plot::PlotError> {
             bodies: args.bodies.clone(),
             joints: args.joints.clone(),
         };
-        let d = plot::run::draw_run_plots(&args.dir, &opts)?;
+        let d = plot::run_plots::draw_run_plots(&args.dir, &opts)?;
         for f in &d.files {
             println!("wrote {}", f.display());
         }
@@ -87,7 +87,7 @@ fn plot_dir(args: &Args) -> Result<(), plot::PlotError> {
             "--bodies and --joints choose what the standard plots show; with quantities, name the columns instead (`rod1.x rod1.z`)".into(),
         ));
     }
-    let fig = plot::run::quantities_figure(&args.dir, &args.quantities, args.log)?;
+    let fig = plot::run_plots::quantities_figure(&args.dir, &args.quantities, args.log)?;
     let out = args
         .out
         .clone()

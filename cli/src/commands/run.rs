@@ -2,20 +2,21 @@
 //!
 //! By default the scene runs as compiled code: its Rust is generated, built with cargo in
 //! the shared workspace of compiled scenes (once per scene structure; a changed number or
-//! `--set` override reuses the program) and run ([`crate::compiled`]). `--interp` runs the
+//! `--set` override reuses the program) and run ([`crate::scene_crate`]). `--interp` runs the
 //! interpreter ([`mbdc_runtime::interp::Interp`]) in this process instead, with no build.
 //! Both paths give the same numbers, bit for bit. The run streams `bodies.csv`, `energy.csv`, `constraints.csv` and `summary.json` into the output
 //! folder as it proceeds, shows a progress bar when the run takes longer than a second, and
 //! ends with a summary (steps, wall time, constraint violation, energy drift) or a failure
 //! report that says where and why.
 
+use std::io::{BufRead, BufReader};
 use std::path::PathBuf;
-use std::process::ExitCode;
+use std::process::{Command, ExitCode, Stdio};
 use std::time::{Duration, Instant};
 
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use mbdc_compiler::Override;
-use mbdc_runtime::app::Settings;
+use mbdc_runtime::app::{Settings, PROTOCOL};
 use mbdc_runtime::interp::Interp;
 use mbdc_runtime::output::{RunMeta, Summary};
 use mbdc_runtime::run_loop::{self, Frame, Observer, RunConfig};
@@ -23,6 +24,7 @@ use mbdc_runtime::scene::{MethodSpec, Scene};
 use mbdc_runtime::system::System;
 
 use crate::render;
+use crate::scene_crate;
 
 /// What to do when a run fails.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
@@ -184,7 +186,7 @@ pub fn run(args: Args) -> ExitCode {
         Ok(s) => s,
         Err(code) => return code,
     };
-    if let Err(code) = crate::stability::gate(
+    if let Err(code) = crate::step_gate::gate(
         &scene,
         args.method.as_deref(),
         args.step,
@@ -194,7 +196,7 @@ pub fn run(args: Args) -> ExitCode {
         return code;
     }
     if !args.interp {
-        return crate::compiled::run(&scene, &args);
+        return run_compiled(&scene, &args);
     }
     let mut sys = match Interp::new(&scene) {
         Ok(s) => s,
@@ -271,7 +273,7 @@ pub fn simulate<S: System>(sys: &S, scene: &Scene, args: &Args) -> ExitCode {
         }
     };
     // plots of whatever frames were written, also when the run stopped early
-    crate::plot::run::after_run(&dir, args.quiet);
+    crate::plot::run_plots::after_run(&dir, args.quiet);
     code
 }
 
@@ -325,4 +327,134 @@ pub fn print_summary(s: &Summary, dir: &std::path::Path) {
     } else {
         println!("  output: {}", dir.display());
     }
+}
+
+/// `mbdc run` through compiled code.
+pub fn run_compiled(scene: &Scene, args: &Args) -> ExitCode {
+    let krate = match scene_crate::prepare(scene) {
+        Ok(c) => c,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return ExitCode::FAILURE;
+        }
+    };
+    let program = match scene_crate::build(&krate, args.quiet) {
+        Ok(p) => p,
+        Err(f) => {
+            scene_crate::report_build_failure(&f, &krate);
+            return ExitCode::FAILURE;
+        }
+    };
+    let scene_file = krate.dir.join(format!(
+        "run-{}-{}.json",
+        std::process::id(),
+        std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .map(|d| d.as_nanos())
+            .unwrap_or(0)
+    ));
+    let json = match serde_json::to_string(scene) {
+        Ok(j) => j,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return ExitCode::FAILURE;
+        }
+    };
+    if let Err(e) = scene_crate::write(&scene_file, &json) {
+        eprintln!("error: {e}");
+        return ExitCode::FAILURE;
+    }
+    let dir = args
+        .out
+        .clone()
+        .unwrap_or_else(|| PathBuf::from("out").join(&scene.name));
+    let mut cmd = Command::new(&program);
+    cmd.arg("--scene")
+        .arg(&scene_file)
+        .arg("--out")
+        .arg(&dir)
+        .arg("--progress");
+    if let Some(m) = &args.method {
+        cmd.arg("--method").arg(m);
+    }
+    if let Some(s) = args.step {
+        cmd.arg("--step").arg(s.to_string());
+    }
+    if let Some(d) = args.duration {
+        cmd.arg("--duration").arg(d.to_string());
+    }
+    if let Some(n) = args.every {
+        cmd.arg("--every").arg(n.to_string());
+    }
+    if args.on_failure == FailurePolicy::HalveStep {
+        cmd.arg("--on-failure").arg("halve-step");
+    }
+    if args.assemble {
+        cmd.arg("--assemble");
+    }
+    if args.quiet {
+        cmd.arg("--quiet");
+    }
+    cmd.stdin(Stdio::null()).stderr(Stdio::piped());
+    let duration = args.duration.unwrap_or(scene.simulate.duration);
+    let mut progress = Progress::new(duration, args.quiet);
+    let status = match cmd.spawn() {
+        Ok(mut child) => {
+            if let Some(err) = child.stderr.take() {
+                for line in BufReader::new(err).lines().map_while(Result::ok) {
+                    match line.strip_prefix(PROTOCOL) {
+                        Some(rest) => {
+                            if let Some(t) = rest.strip_prefix("progress ") {
+                                if let Ok(t) = t.trim().parse() {
+                                    progress.progress(t);
+                                }
+                            } else if let Some(m) = rest.strip_prefix("notice ") {
+                                progress.notice(&scene_crate::unescape(m));
+                            }
+                        }
+                        None => progress.print(&line),
+                    }
+                }
+            }
+            child.wait()
+        }
+        Err(e) => Err(e),
+    };
+    progress.finish();
+    let _ = std::fs::remove_file(&scene_file);
+    let status = match status {
+        Ok(s) => s,
+        Err(e) => {
+            eprintln!("error: running {}: {e}", program.display());
+            return ExitCode::FAILURE;
+        }
+    };
+    if status.code() == Some(2) || status.code().is_none() {
+        // the program could not start (its error is printed above) or was killed
+        if status.code().is_none() {
+            eprintln!("error: the scene's program was terminated ({status})");
+        }
+        return ExitCode::FAILURE;
+    }
+    let summary: Option<Summary> = std::fs::read_to_string(dir.join("summary.json"))
+        .ok()
+        .and_then(|s| serde_json::from_str(&s).ok());
+    let code = match summary {
+        Some(s) => {
+            if !args.quiet || s.failure.is_some() {
+                print_summary(&s, &dir);
+            }
+            if s.finished && status.success() {
+                ExitCode::SUCCESS
+            } else {
+                ExitCode::FAILURE
+            }
+        }
+        None => {
+            eprintln!("error: the run wrote no summary.json in {}", dir.display());
+            ExitCode::FAILURE
+        }
+    };
+    crate::plot::run_plots::after_run(&dir, args.quiet);
+    code
 }

@@ -16,7 +16,7 @@
 
 pub mod data;
 pub mod figure;
-pub mod run;
+pub mod run_plots;
 
 /// Why a plot could not be drawn.
 #[derive(Debug)]

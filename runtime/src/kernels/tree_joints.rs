@@ -77,6 +77,9 @@
 //! [`project`], which dispatch on the [`JointKernel`] to the per-kind functions
 //! [`spherical`], [`revolute`], …, [`planar`].
 
+// The blocks index several parallel arrays (rates, axes) with one counter.
+#![allow(clippy::needless_range_loop)]
+
 use nalgebra::{Matrix2, Matrix3, Quaternion, Vector3};
 
 use crate::contract::math::{qconj, qmul, quat, skew, vec3};

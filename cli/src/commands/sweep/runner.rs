@@ -13,7 +13,7 @@
 //! frames (constraint violation, energy), but not building the scene.
 //!
 //! [`CompiledRunner`] runs the scene's generated program (built once by `mbdc run`'s
-//! compiled path, `crate::compiled`), one process per run, with the method, step, duration
+//! compiled path, `crate::scene_crate`), one process per run, with the method, step, duration
 //! and output interval as options, and reads back `summary.json` and `bodies.csv`. Its CPU
 //! time is measured around the program: the user + system time the operating system
 //! accounts to the finished child (`getrusage(RUSAGE_CHILDREN)`), minus the same for a
@@ -415,9 +415,9 @@ impl CompiledRunner {
     /// # Errors
     /// If the program cannot be generated, built or started.
     pub fn new(scene: &Scene, quiet: bool) -> Result<CompiledRunner, String> {
-        let krate = crate::compiled::prepare(scene)?;
-        let program = crate::compiled::build(&krate, quiet).map_err(|f| {
-            crate::compiled::report_build_failure(&f, &krate);
+        let krate = crate::scene_crate::prepare(scene)?;
+        let program = crate::scene_crate::build(&krate, quiet).map_err(|f| {
+            crate::scene_crate::report_build_failure(&f, &krate);
             format!("{} (`mbdc sweep --interp` runs the interpreter)", f.reason)
         })?;
         let work = std::env::temp_dir().join(format!(

@@ -26,18 +26,13 @@
 
 use std::io::{BufRead, BufReader, Read};
 use std::path::{Path, PathBuf};
-use std::process::{Command, ExitCode, Stdio};
+use std::process::{Command, Stdio};
 use std::time::Duration;
 
 use indicatif::{ProgressBar, ProgressStyle};
 use mbdc_compiler::codegen::{self, Options, SceneJson};
-use mbdc_runtime::app::PROTOCOL;
 use mbdc_runtime::compiled::Fnv;
-use mbdc_runtime::output::Summary;
-use mbdc_runtime::run_loop::Observer;
 use mbdc_runtime::scene::Scene;
-
-use crate::commands::run::{print_summary, Args, FailurePolicy, Progress};
 
 /// The mbdc source workspace this program was compiled from.
 const SOURCE_ROOT: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/..");
@@ -91,7 +86,7 @@ pub struct SceneCrate {
     pub package: String,
 }
 
-fn write(path: &Path, text: &str) -> Result<(), String> {
+pub(crate) fn write(path: &Path, text: &str) -> Result<(), String> {
     if let Some(p) = path.parent() {
         std::fs::create_dir_all(p).map_err(|e| format!("creating {}: {e}", p.display()))?;
     }
@@ -313,7 +308,7 @@ pub fn report_build_failure(f: &BuildFailure, c: &SceneCrate) {
     eprintln!("  note: the generated crate is {}", c.dir.display());
 }
 
-fn unescape(s: &str) -> String {
+pub(crate) fn unescape(s: &str) -> String {
     let mut out = String::with_capacity(s.len());
     let mut it = s.chars();
     while let Some(c) = it.next() {
@@ -328,134 +323,4 @@ fn unescape(s: &str) -> String {
         }
     }
     out
-}
-
-/// `mbdc run` through compiled code.
-pub fn run(scene: &Scene, args: &Args) -> ExitCode {
-    let krate = match prepare(scene) {
-        Ok(c) => c,
-        Err(e) => {
-            eprintln!("error: {e}");
-            return ExitCode::FAILURE;
-        }
-    };
-    let program = match build(&krate, args.quiet) {
-        Ok(p) => p,
-        Err(f) => {
-            report_build_failure(&f, &krate);
-            return ExitCode::FAILURE;
-        }
-    };
-    let scene_file = krate.dir.join(format!(
-        "run-{}-{}.json",
-        std::process::id(),
-        std::time::SystemTime::now()
-            .duration_since(std::time::UNIX_EPOCH)
-            .map(|d| d.as_nanos())
-            .unwrap_or(0)
-    ));
-    let json = match serde_json::to_string(scene) {
-        Ok(j) => j,
-        Err(e) => {
-            eprintln!("error: {e}");
-            return ExitCode::FAILURE;
-        }
-    };
-    if let Err(e) = write(&scene_file, &json) {
-        eprintln!("error: {e}");
-        return ExitCode::FAILURE;
-    }
-    let dir = args
-        .out
-        .clone()
-        .unwrap_or_else(|| PathBuf::from("out").join(&scene.name));
-    let mut cmd = Command::new(&program);
-    cmd.arg("--scene")
-        .arg(&scene_file)
-        .arg("--out")
-        .arg(&dir)
-        .arg("--progress");
-    if let Some(m) = &args.method {
-        cmd.arg("--method").arg(m);
-    }
-    if let Some(s) = args.step {
-        cmd.arg("--step").arg(s.to_string());
-    }
-    if let Some(d) = args.duration {
-        cmd.arg("--duration").arg(d.to_string());
-    }
-    if let Some(n) = args.every {
-        cmd.arg("--every").arg(n.to_string());
-    }
-    if args.on_failure == FailurePolicy::HalveStep {
-        cmd.arg("--on-failure").arg("halve-step");
-    }
-    if args.assemble {
-        cmd.arg("--assemble");
-    }
-    if args.quiet {
-        cmd.arg("--quiet");
-    }
-    cmd.stdin(Stdio::null()).stderr(Stdio::piped());
-    let duration = args.duration.unwrap_or(scene.simulate.duration);
-    let mut progress = Progress::new(duration, args.quiet);
-    let status = match cmd.spawn() {
-        Ok(mut child) => {
-            if let Some(err) = child.stderr.take() {
-                for line in BufReader::new(err).lines().map_while(Result::ok) {
-                    match line.strip_prefix(PROTOCOL) {
-                        Some(rest) => {
-                            if let Some(t) = rest.strip_prefix("progress ") {
-                                if let Ok(t) = t.trim().parse() {
-                                    progress.progress(t);
-                                }
-                            } else if let Some(m) = rest.strip_prefix("notice ") {
-                                progress.notice(&unescape(m));
-                            }
-                        }
-                        None => progress.print(&line),
-                    }
-                }
-            }
-            child.wait()
-        }
-        Err(e) => Err(e),
-    };
-    progress.finish();
-    let _ = std::fs::remove_file(&scene_file);
-    let status = match status {
-        Ok(s) => s,
-        Err(e) => {
-            eprintln!("error: running {}: {e}", program.display());
-            return ExitCode::FAILURE;
-        }
-    };
-    if status.code() == Some(2) || status.code().is_none() {
-        // the program could not start (its error is printed above) or was killed
-        if status.code().is_none() {
-            eprintln!("error: the scene's program was terminated ({status})");
-        }
-        return ExitCode::FAILURE;
-    }
-    let summary: Option<Summary> = std::fs::read_to_string(dir.join("summary.json"))
-        .ok()
-        .and_then(|s| serde_json::from_str(&s).ok());
-    let code = match summary {
-        Some(s) => {
-            if !args.quiet || s.failure.is_some() {
-                print_summary(&s, &dir);
-            }
-            if s.finished && status.success() {
-                ExitCode::SUCCESS
-            } else {
-                ExitCode::FAILURE
-            }
-        }
-        None => {
-            eprintln!("error: the run wrote no summary.json in {}", dir.display());
-            ExitCode::FAILURE
-        }
-    };
-    crate::plot::run::after_run(&dir, args.quiet);
-    code
 }
