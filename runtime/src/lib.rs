@@ -34,6 +34,7 @@ pub mod output;
 pub mod run;
 pub mod scene;
 pub mod stability;
+pub mod study;
 pub mod system;
 pub mod topology;
 
