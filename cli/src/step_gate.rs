@@ -1,7 +1,8 @@
-//! The stability gate of `mbdc run` and `mbdc sweep`: before a run, compare the step with the
-//! scene's stability estimate ([`mbdc_runtime::step_limits`]) and refuse an explicit method whose
-//! step is above the limit `h·ω_max ≤ 2`, or warn when there are fewer than 20 steps per period
-//! of the fastest motion (notes A §1.10).
+//! The stability gate of `mbdc run`: before a run, compare the step with the scene's stability
+//! estimate ([`mbdc_runtime::step_limits`]) and refuse an explicit method whose step is above the
+//! limit `h·ω_max ≤ 2`, or warn when there are fewer than 20 steps per period of the fastest
+//! motion (notes A §1.10). `mbdc sweep` starts its default steps from the same estimate
+//! ([`mbdc_runtime::study::step_series`]).
 
 use std::process::ExitCode;
 

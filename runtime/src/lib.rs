@@ -70,6 +70,7 @@ pub mod compiled;
 pub mod integrators;
 pub mod interp;
 pub mod linalg;
+pub mod study;
 
 pub use analysis::{coordinates, effects, input_limits, step_limits, topology};
 pub use contract::{math, scene, system};

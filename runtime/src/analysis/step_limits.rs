@@ -10,6 +10,13 @@
 //!   (a body on a constraint can only be stiffer than its free mass suggests through other
 //!   springs, which are listed separately);
 //! - rotational springs: `ω = √(k (a·J_a⁻¹a + a·J_b⁻¹a))` about the joint axis a;
+//! - gravity on a hinged body: `ω = √(|g|/d)`, d the distance from the point of a pivot joint
+//!   (spherical, revolute, universal, cylindrical) to the body's mass centre — the
+//!   simple-pendulum rate, an upper bound for the physical pendulum (`m g d / J_pivot` with
+//!   `J_pivot ≥ m d²`). Without it a pendulum at rest would have no estimate at all. Joints
+//!   that are not pivots (rolling, curve, prismatic, …) do not swing the body about their
+//!   point: a rolling ball's attachment is its centre, and √(|g|/d) of its mass-centre
+//!   offset would be a rate the ball does not have;
 //! - penalty contact: `ω = √(k/m)` of the lighter body;
 //! - damping (springs' and contact's): the rate `c/m_eff`, whose explicit limit (lagged
 //!   evaluation, notes A §1.9) is `c h / m_eff < 2`, so it is reported as an equivalent ω.
@@ -20,7 +27,7 @@
 use nalgebra::{Matrix3, Vector3};
 
 use crate::contract::math::{quat, rotation, vec3};
-use crate::contract::scene::{Attachment, BodyRef, ForceKind, Scene};
+use crate::contract::scene::{Attachment, BodyRef, ForceKind, JointKind, Scene};
 
 /// One source of fast motion.
 #[derive(Clone, Debug, PartialEq)]
@@ -65,6 +72,14 @@ pub fn is_explicit(method: &crate::contract::scene::MethodSpec) -> bool {
     )
 }
 
+/// Whether a joint holds a body at a point it can swing about (the gravity source).
+fn is_pivot(kind: &JointKind) -> bool {
+    matches!(
+        kind,
+        JointKind::Spherical | JointKind::Revolute | JointKind::Universal | JointKind::Cylindrical
+    )
+}
+
 struct BodyData {
     m: f64,
     j_inv: Matrix3<f64>,
@@ -93,6 +108,24 @@ pub fn estimate(scene: &Scene) -> Estimate {
                 omega: w,
                 what: format!("spin of body '{}'", b.name),
             });
+        }
+    }
+    if let Some(g) = scene.gravity.map(|g| vec3(&g).norm()).filter(|g| *g > 0.0) {
+        for j in scene.joints.iter().filter(|j| is_pivot(&j.kind)) {
+            for at in [&j.a, &j.b] {
+                let (Some(i), d) = (at.body.index(), vec3(&at.point).norm()) else {
+                    continue;
+                };
+                if d > 1e-9 {
+                    sources.push(Source {
+                        omega: (g / d).sqrt(),
+                        what: format!(
+                            "swing of body '{}' under gravity, hinged {d:.3} m from its mass centre (joint '{}')",
+                            scene.bodies[i].name, j.name
+                        ),
+                    });
+                }
+            }
         }
     }
     // 1/m_eff of an attachment along world direction n (0 for ground)
@@ -263,5 +296,63 @@ mod tests {
         assert!(e.sources[0].what.contains("'k'"));
         assert!((e.stable_step() - 0.1).abs() < 1e-12);
         assert!((e.accurate_step() - std::f64::consts::TAU / 400.0).abs() < 1e-12);
+    }
+
+    fn empty(bodies: Vec<Body>) -> Scene {
+        Scene {
+            name: "s".into(),
+            gravity: None,
+            bodies,
+            joints: vec![],
+            forces: vec![],
+            beams: vec![],
+            meshes: vec![],
+            contacts: vec![],
+            simulate: Simulate::default(),
+            reference: None,
+            params: vec![],
+        }
+    }
+
+    #[test]
+    fn gravity_on_a_hinged_body() {
+        let at = |body, point| Attachment {
+            body,
+            point,
+            frame: [1.0, 0.0, 0.0, 0.0],
+        };
+        let joint = |kind| Joint {
+            name: "j".into(),
+            kind,
+            a: at(BodyRef::Ground, [0.0; 3]),
+            b: at(BodyRef::Body(0), [0.0, 0.0, 0.5]),
+            origin: Origin::default(),
+        };
+        // a spinning body on a spherical joint 0.5 m from its mass centre: √(9.81/0.5)
+        // beats the spin of 3 rad/s
+        let mut s = empty(vec![body("b", 2.0, 1.0, [0.0, 0.0, 3.0])]);
+        s.gravity = Some([0.0, 0.0, -9.81]);
+        s.joints.push(joint(JointKind::Spherical));
+        let e = estimate(&s);
+        let fast = e.fastest().expect("a source");
+        assert!((fast.omega - (9.81f64 / 0.5).sqrt()).abs() < 1e-12, "{e:?}");
+        assert!(fast.what.contains("under gravity"), "{}", fast.what);
+        assert!(fast.what.contains("'b'") && fast.what.contains("'j'"));
+        assert_eq!(e.sources[1].what, "spin of body 'b'");
+        // no gravity, or a joint that is not a pivot: the spin only
+        let mut no_g = s.clone();
+        no_g.gravity = None;
+        assert_eq!(estimate(&no_g).sources.len(), 1);
+        let mut rolling = s.clone();
+        rolling.joints[0] = joint(JointKind::Rolling { radius: 0.1 });
+        assert_eq!(estimate(&rolling).sources.len(), 1);
+        // at rest with nothing else: the pendulum still has a rate
+        let mut rest = s;
+        rest.bodies[0].angular_velocity = [0.0; 3];
+        assert_eq!(estimate(&rest).sources.len(), 1);
+        assert_eq!(
+            estimate(&empty(vec![body("b", 2.0, 1.0, [0.0; 3])])).fastest(),
+            None
+        );
     }
 }

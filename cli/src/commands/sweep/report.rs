@@ -6,10 +6,12 @@ use std::path::Path;
 
 use serde_json::json;
 
-use super::fit::{Excluded, Fit};
-use super::{Measure, ReferenceInfo, SweepResult, SweepRun};
 use crate::plot::figure::{
     color, short_sci, Axis, Figure, LegendPos, Panel, Series, SeriesKind, TopMarks,
+};
+use mbdc_runtime::study::fit::flagged;
+use mbdc_runtime::study::{
+    Cost, Excluded, Fit, Measure, ReferenceInfo, Status, StudyResult, StudyRun,
 };
 
 /// Columns of `sweep.csv`, in order.
@@ -53,7 +55,7 @@ fn num(x: Option<f64>) -> String {
 
 /// `sweep.csv`: one row per run; empty fields where a value does not exist (no reference
 /// for that quantity, a run that did not finish, a method that does not iterate).
-pub fn csv(r: &SweepResult) -> String {
+pub fn csv(r: &StudyResult) -> String {
     let mut s = CSV_COLUMNS.join(",");
     s.push('\n');
     for run in &r.runs {
@@ -104,13 +106,8 @@ fn fit_json(f: &Fit, theory: Option<f64>) -> serde_json::Value {
     })
 }
 
-/// Whether a fitted order differs from the theory by more than 0.3.
-pub fn flagged(f: &Fit, theory: Option<f64>) -> bool {
-    matches!((f.order, theory), (Some(p), Some(t)) if (p - t).abs() > 0.3)
-}
-
 /// `sweep.json`: the settings, the reference, the fits and the runs.
-pub fn json(r: &SweepResult) -> serde_json::Value {
+pub fn json(r: &StudyResult) -> serde_json::Value {
     let reference = match &r.reference {
         ReferenceInfo::Analytic => json!({"kind": "analytic"}),
         ReferenceInfo::Table(p) => json!({"kind": "table", "path": p.display().to_string()}),
@@ -190,7 +187,7 @@ pub fn json(r: &SweepResult) -> serde_json::Value {
         "methods": methods,
         "cost_at": TARGETS.iter().map(|t| json!({
             "error": t,
-            "methods": ranking(r, *t).iter().map(|(mi, c)| json!({
+            "methods": r.ranking(*t).iter().map(|(mi, c)| json!({
                 "name": r.methods[*mi].name,
                 "cpu_time_s": c.seconds(),
                 "interpolated": matches!(c, Cost::Interpolated(_)),
@@ -210,7 +207,7 @@ fn sci(x: Option<f64>) -> String {
 }
 
 /// The markdown table of the runs.
-pub fn markdown(r: &SweepResult) -> String {
+pub fn markdown(r: &StudyResult) -> String {
     let mut s = String::new();
     s.push_str("| method | h (s) | status | CPU (s) | reps | pos err final (m) | pos err max (m) | rot err final (rad) | rot err max (rad) | max violation | energy drift | iterations |\n");
     s.push_str("|---|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
@@ -218,7 +215,7 @@ pub fn markdown(r: &SweepResult) -> String {
         let e = run.errors.unwrap_or_default();
         let o = &run.outcome;
         let status = match &o.status {
-            super::Status::Ok => "ok".to_string(),
+            Status::Ok => "ok".to_string(),
             st => format!("{} (t = {:.3} s)", st.word(), st.time().unwrap_or(o.t_end)),
         };
         let _ = writeln!(
@@ -282,7 +279,7 @@ fn fit_line(name: &str, f: &Fit, theory: Option<f64>) -> String {
     s
 }
 
-fn reference_text(r: &SweepResult) -> String {
+fn reference_text(r: &StudyResult) -> String {
     match &r.reference {
         ReferenceInfo::Analytic => "the scene's analytic reference (exact at every frame time)".into(),
         ReferenceInfo::Table(p) => format!("the scene's reference table {} (interpolated in time)", p.display()),
@@ -303,78 +300,8 @@ fn reference_text(r: &SweepResult) -> String {
     }
 }
 
-/// The cheapest finished run whose error (the plotted measure) is at most `target`.
-pub fn cheapest(r: &SweepResult, target: f64) -> Option<&SweepRun> {
-    r.runs
-        .iter()
-        .filter(|run| {
-            run.outcome.status.is_ok()
-                && run
-                    .errors
-                    .as_ref()
-                    .and_then(|e| r.measure.of(e))
-                    .is_some_and(|e| e <= target)
-        })
-        .min_by(|a, b| a.outcome.cpu_time.total_cmp(&b.outcome.cpu_time))
-}
-
-/// What reaching an error costs a method.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum Cost {
-    /// Interpolated (log–log) between the two runs whose errors bracket the target, s.
-    Interpolated(f64),
-    /// Already reached at the coarsest finished run, which cost this much, s.
-    AtMost(f64),
-}
-
-impl Cost {
-    /// The CPU time, s.
-    pub fn seconds(self) -> f64 {
-        match self {
-            Cost::Interpolated(c) | Cost::AtMost(c) => c,
-        }
-    }
-}
-
-/// The CPU time method `mi` needs for an error (the plotted measure) of `target`: along
-/// its work–precision line, between the finished runs that bracket the target (None if
-/// no finished run reaches it).
-pub fn cost_at(r: &SweepResult, mi: usize, target: f64) -> Option<Cost> {
-    let mut pts: Vec<(f64, f64, f64)> = r
-        .runs
-        .iter()
-        .filter(|x| x.method == mi && x.outcome.status.is_ok())
-        .filter_map(|x| {
-            let e = r.measure.of(x.errors.as_ref()?)?;
-            (e.is_finite() && x.outcome.cpu_time > 0.0).then_some((x.step, e, x.outcome.cpu_time))
-        })
-        .collect();
-    pts.sort_by(|a, b| b.0.total_cmp(&a.0));
-    let first = pts.iter().position(|p| p.1 <= target)?;
-    if first == 0 {
-        return Some(Cost::AtMost(pts[0].2));
-    }
-    let (a, b) = (pts[first - 1], pts[first]);
-    if b.1 <= 0.0 {
-        return Some(Cost::Interpolated(b.2));
-    }
-    let s = (target.ln() - a.1.ln()) / (b.1.ln() - a.1.ln());
-    Some(Cost::Interpolated(
-        (a.2.ln() + s * (b.2.ln() - a.2.ln())).exp(),
-    ))
-}
-
-/// The methods that reach `target`, cheapest first.
-pub fn ranking(r: &SweepResult, target: f64) -> Vec<(usize, Cost)> {
-    let mut v: Vec<(usize, Cost)> = (0..r.methods.len())
-        .filter_map(|mi| Some((mi, cost_at(r, mi, target)?)))
-        .collect();
-    v.sort_by(|a, b| a.1.seconds().total_cmp(&b.1.seconds()));
-    v
-}
-
 /// The "reading this" text.
-pub fn reading(r: &SweepResult) -> String {
+pub fn reading(r: &StudyResult) -> String {
     let mut s = String::new();
     let unit = r.measure.unit();
     s.push_str("Reading this:\n");
@@ -387,7 +314,7 @@ pub fn reading(r: &SweepResult) -> String {
         "- sweep.svg, right: error against step. The slope is the convergence order (fitted, in the legend; the dashed line has slope 2). Where a line flattens, the method has stopped converging: it has reached the reference's own error, round-off, or a floor of its own (a regularization, a tolerance). Crosses along the top are runs that diverged or stopped."
     );
     for target in TARGETS {
-        let rank = ranking(r, target);
+        let rank = r.ranking(target);
         if rank.is_empty() {
             let _ = writeln!(
                 s,
@@ -409,7 +336,7 @@ pub fn reading(r: &SweepResult) -> String {
             "- CPU time for error {target:e} {unit} (interpolated between the runs that bracket it), cheapest first: {}.",
             list.join(", ")
         );
-        if let Some(run) = cheapest(r, target) {
+        if let Some(run) = r.cheapest(target) {
             let _ = writeln!(
                 s,
                 "  Cheapest measured run at or below it: {} at h = {} s, {:.2e} s.",
@@ -475,7 +402,7 @@ fn finer_hint(f: &Fit) -> String {
 }
 
 /// The figure: work–precision and error vs step.
-pub fn figure(r: &SweepResult) -> Figure {
+pub fn figure(r: &StudyResult) -> Figure {
     let ylabel = r.measure.label();
     let mut wp = Vec::new();
     let mut es = Vec::new();
@@ -483,9 +410,9 @@ pub fn figure(r: &SweepResult) -> Figure {
     let mut es_marks = Vec::new();
     for (mi, m) in r.methods.iter().enumerate() {
         let c = color(mi);
-        let mut mine: Vec<&SweepRun> = r.runs.iter().filter(|x| x.method == mi).collect();
+        let mut mine: Vec<&StudyRun> = r.runs.iter().filter(|x| x.method == mi).collect();
         mine.sort_by(|a, b| b.step.total_cmp(&a.step));
-        let ok: Vec<(&SweepRun, f64)> = mine
+        let ok: Vec<(&StudyRun, f64)> = mine
             .iter()
             .filter(|x| x.outcome.status.is_ok())
             .filter_map(|x| Some((*x, x.errors.as_ref().and_then(|e| r.measure.of(e))?)))
@@ -675,7 +602,7 @@ fn dodge(marks: &mut [(f64, plotters::style::RGBColor)]) {
 ///
 /// # Errors
 /// If the folder or a file cannot be written.
-pub fn write_all(r: &SweepResult, dir: &Path) -> Result<(), String> {
+pub fn write_all(r: &StudyResult, dir: &Path) -> Result<(), String> {
     std::fs::create_dir_all(dir).map_err(|e| format!("creating {}: {e}", dir.display()))?;
     let write = |name: &str, text: &str| {
         let p = dir.join(name);
@@ -747,8 +674,8 @@ pub fn write_all(r: &SweepResult, dir: &Path) -> Result<(), String> {
 
 #[cfg(test)]
 mod tests {
-    use super::super::fit::Excluded;
     use super::*;
+    use mbdc_runtime::study::fit;
 
     #[test]
     fn csv_quoting() {
@@ -760,13 +687,11 @@ mod tests {
         assert_eq!(s, "plain");
     }
 
-    fn result(points: &[(f64, Option<f64>, f64)]) -> SweepResult {
-        use super::super::reference::Errors;
-        use super::super::runner::{Outcome, Status, Track};
-        use super::super::MethodEntry;
+    fn result(points: &[(f64, Option<f64>, f64)]) -> StudyResult {
+        use mbdc_runtime::study::{Errors, MethodEntry, Outcome, Track};
         let runs = points
             .iter()
-            .map(|&(h, e, cpu)| SweepRun {
+            .map(|&(h, e, cpu)| StudyRun {
                 method: 0,
                 step: h,
                 every: 1,
@@ -794,7 +719,7 @@ mod tests {
                 }),
             })
             .collect();
-        SweepResult {
+        StudyResult {
             model: "m".into(),
             duration: 1.0,
             runner: "interpreter".into(),
@@ -825,14 +750,14 @@ mod tests {
             (0.01, Some(1e-2), 1.0),
             (0.001, Some(1e-4), 100.0),
         ]);
-        match cost_at(&r, 0, 1e-3) {
+        match r.cost_at(0, 1e-3) {
             Some(Cost::Interpolated(c)) => assert!((c - 10.0).abs() < 1e-9, "{c}"),
             other => panic!("{other:?}"),
         }
-        assert_eq!(cost_at(&r, 0, 1e-1), Some(Cost::AtMost(1.0)));
-        assert_eq!(cost_at(&r, 0, 1e-6), None);
-        assert_eq!(ranking(&r, 1e-3).len(), 1);
-        assert_eq!(cheapest(&r, 1e-3).map(|x| x.step), Some(0.001));
+        assert_eq!(r.cost_at(0, 1e-1), Some(Cost::AtMost(1.0)));
+        assert_eq!(r.cost_at(0, 1e-6), None);
+        assert_eq!(r.ranking(1e-3).len(), 1);
+        assert_eq!(r.cheapest(1e-3).map(|x| x.step), Some(0.001));
         let text = reading(&r);
         assert!(text.contains("staggered 1.00e1 s"), "{text}");
         assert!(text.contains("No run reached error ≤ 1e-6 m"), "{text}");
@@ -840,21 +765,6 @@ mod tests {
             text.contains("staggered at h = 1e-1 s (diverged)"),
             "{text}"
         );
-    }
-
-    #[test]
-    fn flags() {
-        let f = |p: Option<f64>| Fit {
-            order: p,
-            used: vec![],
-            excluded: vec![(0.1, Excluded::Floor)],
-            local: vec![],
-            stalls_below: None,
-        };
-        assert!(!flagged(&f(Some(2.25)), Some(2.0)));
-        assert!(flagged(&f(Some(1.6)), Some(2.0)));
-        assert!(!flagged(&f(None), Some(2.0)));
-        assert!(!flagged(&f(Some(1.0)), None));
     }
 
     #[test]
@@ -881,21 +791,21 @@ mod tests {
             (0.02, Some(0.2 / 2f64.powf(6.5)), 4.0),
             (0.01, Some(0.2 / 2f64.powf(8.35)), 8.0),
         ]);
-        let pts: Vec<super::super::fit::Point> = r
+        let pts: Vec<fit::Point> = r
             .runs
             .iter()
-            .map(|x| super::super::fit::Point {
+            .map(|x| fit::Point {
                 h: x.step,
                 error: x.errors.as_ref().and_then(|e| e.pos_max),
                 finished: true,
             })
             .collect();
-        let rules = super::super::fit::Rules {
+        let rules = fit::Rules {
             floor: 1e-12,
             ceiling: 1.0,
             h_limit: None,
         };
-        let f = super::super::fit::fit(&pts, &rules);
+        let f = fit::fit(&pts, &rules);
         assert!(f.order.is_some_and(|p| p > 3.0), "{f:?}");
         r.fits = vec![(f, None)];
         let text = reading(&r);

@@ -22,8 +22,14 @@
 //!    about the order.
 //!
 //! At least two runs must remain. The fit is thus made over the finest runs that agree
-//! with each other, which is what a convergence order means; sweep fine enough steps
-//! (`--levels`) for three or more of them.
+//! with each other, which is what a convergence order means; study fine enough steps
+//! (more [`levels`](super::StudyOptions::levels)) for three or more of them.
+//!
+//! A fitted order is [`flagged`] when it differs from the method's theoretical order by
+//! more than [`FLAG_TOLERANCE`].
+
+/// A fitted order further than this from the theoretical order is flagged.
+pub const FLAG_TOLERANCE: f64 = 0.3;
 
 /// One run as the fit sees it.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -210,6 +216,12 @@ pub fn fit(points: &[Point], rules: &Rules) -> Fit {
     }
 }
 
+/// Whether a fitted order differs from the theoretical order `theory` by more than
+/// [`FLAG_TOLERANCE`] (never without both).
+pub fn flagged(f: &Fit, theory: Option<f64>) -> bool {
+    matches!((f.order, theory), (Some(p), Some(t)) if (p - t).abs() > FLAG_TOLERANCE)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -304,5 +316,20 @@ mod tests {
         let f = fit(&p, &RULES);
         assert!(f.excluded.contains(&(0.1, Excluded::NoError)));
         assert!(fit(&p[..1], &RULES).order.is_none());
+    }
+
+    #[test]
+    fn flags() {
+        let f = |p: Option<f64>| Fit {
+            order: p,
+            used: vec![],
+            excluded: vec![(0.1, Excluded::Floor)],
+            local: vec![],
+            stalls_below: None,
+        };
+        assert!(!flagged(&f(Some(2.25)), Some(2.0)));
+        assert!(flagged(&f(Some(1.6)), Some(2.0)));
+        assert!(!flagged(&f(None), Some(2.0)));
+        assert!(!flagged(&f(Some(1.0)), None));
     }
 }

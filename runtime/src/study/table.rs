@@ -1,0 +1,286 @@
+//! The scene's tabulated reference: `reference { table "file.csv" }`, a CSV file with the
+//! columns of `bodies.csv`, interpolated in time — cubic Hermite with the velocities where
+//! the table has them (`vx vy vz` for positions, `wx wy wz` for orientations), linear
+//! otherwise.
+
+use std::path::{Path, PathBuf};
+
+use crate::contract::scene::Scene;
+
+use super::error::ReferenceError;
+use super::reference::{RefBody, RefSolution, SAME_TIME};
+use super::track::{dot4, qnormalize, Track};
+
+/// `reference { table "file.csv" }`: a table with the columns of `bodies.csv`.
+#[derive(Clone, Debug)]
+pub struct Table {
+    path: PathBuf,
+    t: Vec<f64>,
+    /// Per scene body: (has position, has velocity, has orientation, has angular velocity).
+    has: Vec<[bool; 4]>,
+    track: Track,
+}
+
+/// The header and the selected columns of a CSV file, stopping at an incomplete last line.
+fn read_columns(path: &Path, wanted: &[String]) -> Result<Vec<Vec<f64>>, ReferenceError> {
+    let err = |message: String| ReferenceError::Table {
+        path: path.to_path_buf(),
+        message,
+    };
+    let mut r = csv::ReaderBuilder::new()
+        .has_headers(true)
+        .flexible(true)
+        .from_path(path)
+        .map_err(|e| err(e.to_string()))?;
+    let head: Vec<String> = r
+        .headers()
+        .map_err(|e| err(e.to_string()))?
+        .iter()
+        .map(str::to_string)
+        .collect();
+    let idx: Vec<usize> = wanted
+        .iter()
+        .map(|w| {
+            head.iter()
+                .position(|h| h == w)
+                .ok_or_else(|| err(format!("no column `{w}`")))
+        })
+        .collect::<Result<_, _>>()?;
+    let mut data = vec![Vec::new(); wanted.len()];
+    let mut rec = csv::StringRecord::new();
+    let mut line = 1usize;
+    while r.read_record(&mut rec).map_err(|e| err(e.to_string()))? {
+        line += 1;
+        if rec.len() != head.len() {
+            // an incomplete last line: the data end here
+            break;
+        }
+        for (d, &i) in data.iter_mut().zip(&idx) {
+            let field = rec.get(i).unwrap_or("").trim();
+            d.push(
+                field
+                    .parse::<f64>()
+                    .map_err(|_| err(format!("line {line}: `{field}` is not a number")))?,
+            );
+        }
+    }
+    Ok(data)
+}
+
+/// The column names of a CSV file.
+fn read_header(path: &Path) -> Result<Vec<String>, ReferenceError> {
+    let err = |message: String| ReferenceError::Table {
+        path: path.to_path_buf(),
+        message,
+    };
+    let mut r = csv::ReaderBuilder::new()
+        .has_headers(true)
+        .flexible(true)
+        .from_path(path)
+        .map_err(|e| err(e.to_string()))?;
+    let h = r.headers().map_err(|e| err(e.to_string()))?;
+    if h.is_empty() {
+        return Err(err("the file has no header line".into()));
+    }
+    Ok(h.iter().map(str::to_string).collect())
+}
+
+impl Table {
+    /// Read the table for `scene` (bodies matched by name; other columns are ignored).
+    ///
+    /// # Errors
+    /// If the file cannot be read, has no `t` column, no column of any scene body, or its
+    /// times do not increase.
+    pub fn read(path: &Path, scene: &Scene) -> Result<Table, ReferenceError> {
+        let err = |message: &str| ReferenceError::Table {
+            path: path.to_path_buf(),
+            message: message.to_string(),
+        };
+        let head = read_header(path)?;
+        if !head.iter().any(|h| h == "t") {
+            return Err(err("the table has no `t` column"));
+        }
+        let n = scene.bodies.len();
+        let groups: [&[&str]; 4] = [
+            &["x", "y", "z"],
+            &["vx", "vy", "vz"],
+            &["qw", "qx", "qy", "qz"],
+            &["wx", "wy", "wz"],
+        ];
+        let mut has = vec![[false; 4]; n];
+        let mut names = vec!["t".to_string()];
+        let mut cols: Vec<(usize, usize, usize, usize)> = Vec::new(); // (body, group, comp, column)
+        for (b, body) in scene.bodies.iter().enumerate() {
+            for (g, comps) in groups.iter().enumerate() {
+                let want: Vec<String> =
+                    comps.iter().map(|c| format!("{}.{c}", body.name)).collect();
+                if want.iter().all(|w| head.contains(w)) {
+                    has[b][g] = true;
+                    for (c, w) in want.into_iter().enumerate() {
+                        cols.push((b, g, c, names.len()));
+                        names.push(w);
+                    }
+                }
+            }
+        }
+        if has.iter().all(|h| !h[0] && !h[2]) {
+            return Err(err(
+                "the table has no position (`BODY.x .y .z`) or orientation (`BODY.qw .qx .qy .qz`) columns of the scene's bodies",
+            ));
+        }
+        let data = read_columns(path, &names)?;
+        let t = data[0].clone();
+        if t.len() < 2 || t.windows(2).any(|w| w[1] <= w[0]) {
+            return Err(err("the table needs at least two rows with increasing `t`"));
+        }
+        let mut track = Track::new(n);
+        track.t = t.clone();
+        track.r = vec![[0.0; 3]; t.len() * n];
+        track.v = vec![[0.0; 3]; t.len() * n];
+        track.q = vec![[1.0, 0.0, 0.0, 0.0]; t.len() * n];
+        track.w = vec![[0.0; 3]; t.len() * n];
+        for &(b, g, comp, col) in &cols {
+            for (f, x) in data[col].iter().enumerate() {
+                let k = f * n + b;
+                match g {
+                    0 => track.r[k][comp] = *x,
+                    1 => track.v[k][comp] = *x,
+                    2 => track.q[k][comp] = *x,
+                    _ => track.w[k][comp] = *x,
+                }
+            }
+        }
+        for q in &mut track.q {
+            *q = qnormalize(*q).unwrap_or(*q);
+        }
+        Ok(Table {
+            path: path.to_path_buf(),
+            t,
+            has,
+            track,
+        })
+    }
+}
+
+impl RefSolution for Table {
+    fn at(&self, t: f64, out: &mut [RefBody]) -> Result<(), ReferenceError> {
+        let (first, last) = (self.t[0], self.t[self.t.len() - 1]);
+        let tol = SAME_TIME * t.abs().max(1.0);
+        if t < first - tol || t > last + tol {
+            return Err(ReferenceError::NotCovered(format!(
+                "{}: the reference table covers t = {first} … {last} s, not t = {t} s",
+                self.path.display()
+            )));
+        }
+        let i = self
+            .t
+            .partition_point(|x| *x <= t)
+            .clamp(1, self.t.len() - 1)
+            - 1;
+        let n = self.track.bodies;
+        let (t0, t1) = (self.t[i], self.t[i + 1]);
+        let s = ((t - t0) / (t1 - t0)).clamp(0.0, 1.0);
+        for (b, o) in out.iter_mut().enumerate() {
+            let [pos, vel, ori, ang] = self.has[b];
+            *o = RefBody::default();
+            if !pos && !ori {
+                continue;
+            }
+            let (rh, qh) = self.track.interpolate(i, t, b);
+            let (k0, k1) = (i * n + b, (i + 1) * n + b);
+            if pos {
+                o.r = Some(if vel {
+                    rh
+                } else {
+                    std::array::from_fn(|c| {
+                        (1.0 - s) * self.track.r[k0][c] + s * self.track.r[k1][c]
+                    })
+                });
+            }
+            if ori {
+                o.q = Some(if ang {
+                    qh
+                } else {
+                    let q0 = self.track.q[k0];
+                    let mut q1 = self.track.q[k1];
+                    if dot4(&q0, &q1) < 0.0 {
+                        q1 = q1.map(|x| -x);
+                    }
+                    let q: [f64; 4] = std::array::from_fn(|c| (1.0 - s) * q0[c] + s * q1[c]);
+                    qnormalize(q).unwrap_or(q0)
+                });
+            }
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::study::error_measures::rotation_angle;
+
+    fn scene_with(bodies: &[&str]) -> Scene {
+        Scene {
+            name: "t".into(),
+            gravity: None,
+            bodies: bodies
+                .iter()
+                .map(|n| crate::contract::scene::Body {
+                    name: n.to_string(),
+                    mass: 1.0,
+                    inertia: [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
+                    position: [0.0; 3],
+                    orientation: [1.0, 0.0, 0.0, 0.0],
+                    velocity: [0.0; 3],
+                    angular_velocity: [0.0; 3],
+                    origin: Default::default(),
+                })
+                .collect(),
+            joints: vec![],
+            forces: vec![],
+            beams: vec![],
+            meshes: vec![],
+            contacts: vec![],
+            simulate: Default::default(),
+            reference: None,
+            params: vec![],
+        }
+    }
+
+    #[test]
+    fn a_table_is_interpolated_and_checked() {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let p = dir.path().join("ref.csv");
+        // b: a position with velocities (Hermite) and an orientation without (linear)
+        let mut text = String::from("t,b.x,b.y,b.z,b.vx,b.vy,b.vz,b.qw,b.qx,b.qy,b.qz,other\n");
+        for i in 0..=10 {
+            let t = i as f64 * 0.1;
+            let a = t / 2.0;
+            text.push_str(&format!(
+                "{t},{},{},0,{},{},0,{},0,0,{},7\n",
+                t.cos(),
+                t.sin(),
+                -t.sin(),
+                t.cos(),
+                a.cos(),
+                a.sin()
+            ));
+        }
+        text.push_str("1.1,0,0"); // an incomplete last line ends the data
+        std::fs::write(&p, text).expect("write");
+        let tab = Table::read(&p, &scene_with(&["b", "c"])).expect("table");
+        let mut out = vec![RefBody::default(); 2];
+        tab.at(0.55, &mut out).expect("covered");
+        let r = out[0].r.expect("position");
+        assert!((r[0] - 0.55f64.cos()).abs() < 1e-6, "{r:?}");
+        let exact = [0.275f64.cos(), 0.0, 0.0, 0.275f64.sin()];
+        assert!(rotation_angle(&out[0].q.expect("orientation"), &exact) < 1e-3);
+        assert_eq!(out[1], RefBody::default(), "no columns of body c");
+        assert!(matches!(
+            tab.at(1.05, &mut out),
+            Err(ReferenceError::NotCovered(_))
+        ));
+        assert!(Table::read(&p, &scene_with(&["z"])).is_err());
+    }
+}
