@@ -46,7 +46,7 @@
 //!
 //! Why faer for the sparse path: its numeric refactorization takes the value array, the
 //! output array and a `MemStack` from the caller, so a factorization per step performs no
-//! allocation (checked by `tests/alloc_free.rs` with a counting allocator), and its AMD
+//! allocation (checked by `runtime/tests/alloc_free_solvers_output.rs` with a counting allocator), and its AMD
 //! ordering and supernodal kernels are better than a hand-written envelope solver. Its
 //! only gap — no rank-revealing sparse factorization — is covered by the static-order
 //! threshold test above: for a PSD matrix a zero Schur diagonal implies a zero Schur
