@@ -45,11 +45,11 @@
 //! ## Module map
 //!
 //! `source` (file table, line/column), `diag` (diagnostics, rendering), `load` (reading,
-//! parsing, imports), `units` and `value` (dimensions, quantities), `eval` (expressions),
-//! `fn1` (time-function trees), `env` (scopes), `lower` (expansion and lowering of every
-//! construct), `geom` (rotations, frames, inertia formulas), `kinematics` (constraint
-//! residuals at t = 0), `validate` (post-lowering checks), `summary`, `codegen` (Rust from a
-//! `Scene`), `embed` (the `build.rs` API).
+//! parsing, imports), `units` and `value` (dimensions, quantities), `fn1` (time-function
+//! trees), `env` (scopes), `lower` (expansion and lowering of every construct; its child
+//! `lower::eval` evaluates expressions), `geom` (rotations, frames, inertia formulas),
+//! `kinematics` (constraint residuals at t = 0), `validate` (post-lowering checks),
+//! `summary`, `codegen` (Rust from a `Scene`), `embed` (the `build.rs` API).
 
 #![warn(missing_docs)]
 
@@ -57,7 +57,6 @@ pub mod codegen;
 pub mod diag;
 pub mod embed;
 pub mod env;
-pub mod eval;
 pub mod fn1;
 pub mod geom;
 pub mod kinematics;
