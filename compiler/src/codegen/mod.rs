@@ -42,6 +42,11 @@
 //! block sparsity known from the joint list, the same elimination as the dense kernel with
 //! constant sizes — same operations in the same order, so again bit-identical.
 //!
+//! **Warning-free.** The generated module has no blanket `allow`: helpers, fields, imports
+//! and parameter names follow what the bodies use, so that it compiles under
+//! `#![deny(warnings)]` and `#![deny(clippy::all)]` in the including crate
+//! (`tests/generated_lints.rs`).
+//!
 //! [`System::k_solver`]: mbdc_runtime::system::System::k_solver
 
 mod emit;
