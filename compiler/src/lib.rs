@@ -17,7 +17,7 @@
 //!   [`Loaded`] = the [`Sources`] read, the [`Scene`] (present only when there is no
 //!   error) and every [`Diagnostic`] (errors, warnings, notes), sorted by location.
 //! - [`Override`]: a `--set NAME=VALUE` parameter override (`"L=2m".parse()`).
-//! - [`summary`]: a [`CheckSummary`] of a scene (bodies, joints and rows, degrees of
+//! - [`summary()`]: a [`CheckSummary`] of a scene (bodies, joints and rows, degrees of
 //!   freedom, Jacobian rank, effects, forces, beams/meshes, method and settings), with a
 //!   readable `Display`.
 //! - [`codegen::generate`]: a [`Scene`] → formatted Rust source (`pub mod <scene> { Model }`),
