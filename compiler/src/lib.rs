@@ -17,7 +17,7 @@
 //!   [`Loaded`] = the [`Sources`] read, the [`Scene`] (present only when there is no
 //!   error) and every [`Diagnostic`] (errors, warnings, notes), sorted by location.
 //! - [`Override`]: a `--set NAME=VALUE` parameter override (`"L=2m".parse()`).
-//! - [`summary`]: a [`CheckSummary`] of a scene (bodies, joints and rows, degrees of
+//! - [`summary()`]: a [`CheckSummary`] of a scene (bodies, joints and rows, degrees of
 //!   freedom, Jacobian rank, effects, forces, beams/meshes, method and settings), with a
 //!   readable `Display`.
 //! - [`codegen::generate`]: a [`Scene`] → formatted Rust source (`pub mod <scene> { Model }`),
@@ -45,11 +45,11 @@
 //! ## Module map
 //!
 //! `source` (file table, line/column), `diag` (diagnostics, rendering), `load` (reading,
-//! parsing, imports), `units` and `value` (dimensions, quantities), `eval` (expressions),
-//! `fn1` (time-function trees), `env` (scopes), `lower` (expansion and lowering of every
-//! construct), `geom` (rotations, frames, inertia formulas), `kinematics` (constraint
-//! residuals at t = 0), `validate` (post-lowering checks), `summary`, `codegen` (Rust from a
-//! `Scene`), `embed` (the `build.rs` API).
+//! parsing, imports), `units` and `value` (dimensions, quantities), `fn1` (time-function
+//! trees), `env` (scopes), `lower` (expansion and lowering of every construct; its child
+//! `lower::eval` evaluates expressions), `geom` (rotations, frames, inertia formulas),
+//! `kinematics` (constraint residuals at t = 0), `validate` (post-lowering checks),
+//! `summary`, `codegen` (Rust from a `Scene`), `embed` (the `build.rs` API).
 
 #![warn(missing_docs)]
 
@@ -57,7 +57,6 @@ pub mod codegen;
 pub mod diag;
 pub mod embed;
 pub mod env;
-pub mod eval;
 pub mod fn1;
 pub mod geom;
 pub mod kinematics;

@@ -1,9 +1,13 @@
 //! The token emitter behind [`super::generate`].
 
-use mbdc_runtime::compiled::{JointCombo, Mode, Plan, Spec, TermCombo, TermKind, UJoint, UTerm};
+use mbdc_runtime::compiled::{
+    JointCombo, Mode, Plan, Spec, TermCombo, TermKind, UJoint, UTerm,
+};
 use mbdc_runtime::scene::{ForceFrame, Scene};
 use mbdc_runtime::system::JointKernel;
-use proc_macro2::{Literal, TokenStream};
+use std::collections::HashSet;
+
+use proc_macro2::{Ident, Literal, TokenStream, TokenTree};
 use quote::{format_ident, quote};
 
 use super::{lit_hex, lit_usize, shape, SceneJson};
@@ -107,10 +111,7 @@ impl Ctx<'_> {
                     let (a, b) = (lit_usize(c0 + dc), lit_usize(t0 + dt));
                     (quote!(#a), quote!(#b))
                 }
-                None => {
-                    let (a, b) = (lit_usize(dc), lit_usize(dt));
-                    (quote!(#c + #a), quote!(#tb + #b))
-                }
+                None => (offset(c, dc), offset(tb, dt)),
             };
             out.push(self.call(s, x.clone(), co, to));
             let (nc, nt) = self.spec.shapes[s].counts();
@@ -235,11 +236,12 @@ fn term_applied(
     }
 }
 
-/// The potential energy of one term.
-fn term_energy(combo: &TermCombo, s: &Sides, index: TokenStream) -> TokenStream {
+/// The potential energy of one term, `None` for a term without one (a point force or a
+/// torque).
+fn term_energy(combo: &TermCombo, s: &Sides, index: TokenStream) -> Option<TokenStream> {
     let Sides { pa, pb, .. } = s;
-    match combo.kind {
-        TermKind::Point | TermKind::Torque => quote!(0.0),
+    Some(match combo.kind {
+        TermKind::Point | TermKind::Torque => return None,
         TermKind::Spring => quote!(forces::spring_energy(&self.springs[#index], #pa, #pb)),
         TermKind::RotSpring => {
             quote!(forces::rotational_spring_energy(&self.rot_springs[#index], #pa, #pb))
@@ -251,6 +253,99 @@ fn term_energy(combo: &TermCombo, s: &Sides, index: TokenStream) -> TokenStream 
             quote!(contact::sphere_sphere_energy(&self.sphere_spheres[#index], #pa, #pb))
         }
         TermKind::BoxPlane => quote!(contact::box_plane_energy(&self.box_planes[#index], #pa, #pb)),
+    })
+}
+
+/// `base + d`, or `base` for `d = 0` (no `x + 0` for `clippy::identity_op`).
+fn offset(base: &TokenStream, d: usize) -> TokenStream {
+    if d == 0 {
+        base.clone()
+    } else {
+        let d = lit_usize(d);
+        quote!(#base + #d)
+    }
+}
+
+/// The dispatch of a table row on its combination: one `if` for a single arm (a `match`
+/// with one arm and `_ => {}` is `clippy::single_match`), a `match` for several, nothing for
+/// none.
+fn dispatch(scrutinee: TokenStream, arms: Vec<(Literal, TokenStream)>) -> TokenStream {
+    match arms.as_slice() {
+        [] => quote!(),
+        [(i, body)] => quote!(if #scrutinee == #i { #body }),
+        _ => {
+            let arms = arms.iter().map(|(i, body)| quote!(#i => { #body }));
+            quote! {
+                match #scrutinee {
+                    #(#arms)*
+                    _ => {}
+                }
+            }
+        }
+    }
+}
+
+/// Every identifier in `ts` (at any depth).
+pub(super) fn idents(ts: &TokenStream) -> HashSet<String> {
+    fn walk(ts: &TokenStream, out: &mut HashSet<String>) {
+        for t in ts.clone() {
+            match t {
+                TokenTree::Ident(i) => {
+                    out.insert(i.to_string());
+                }
+                TokenTree::Group(g) => walk(&g.stream(), out),
+                _ => {}
+            }
+        }
+    }
+    let mut out = HashSet::new();
+    walk(ts, &mut out);
+    out
+}
+
+/// The identifiers of `ts` that follow `prefix` (a sequence of identifiers and
+/// punctuation, such as `self .`) or precede `suffix` (such as `::`), at any depth.
+fn adjacent(ts: &TokenStream, prefix: &str, suffix: &str) -> HashSet<String> {
+    fn flat(ts: &TokenStream, out: &mut Vec<Vec<String>>) {
+        let mut level = Vec::new();
+        for t in ts.clone() {
+            match t {
+                TokenTree::Group(g) => {
+                    flat(&g.stream(), out);
+                    level.push(String::from("{group}"));
+                }
+                TokenTree::Ident(i) => level.push(i.to_string()),
+                TokenTree::Punct(p) => level.push(p.as_char().to_string()),
+                TokenTree::Literal(l) => level.push(l.to_string()),
+            }
+        }
+        out.push(level);
+    }
+    let (pre, suf): (Vec<String>, Vec<String>) = (
+        prefix.split_whitespace().map(String::from).collect(),
+        suffix.split_whitespace().map(String::from).collect(),
+    );
+    let mut levels = Vec::new();
+    flat(ts, &mut levels);
+    let mut out = HashSet::new();
+    for level in &levels {
+        for k in pre.len()..level.len() {
+            let before = &level[k - pre.len()..k];
+            let after = level.get(k + 1..k + 1 + suf.len());
+            if before == pre.as_slice() && after.is_some_and(|a| a == suf.as_slice()) {
+                out.insert(level[k].clone());
+            }
+        }
+    }
+    out
+}
+
+/// A parameter named `name`, or `_name` if `used` (the body's identifiers) does not have it.
+pub(super) fn param(name: &str, used: &HashSet<String>) -> Ident {
+    if used.contains(name) {
+        format_ident!("{}", name)
+    } else {
+        format_ident!("_{}", name)
     }
 }
 
@@ -259,6 +354,12 @@ fn ty(s: &str) -> TokenStream {
 }
 
 /// The whole file.
+///
+/// The code is generated clean — it compiles without warnings under `#![deny(warnings)]`
+/// and `#![deny(clippy::all)]` in the crate that includes it (`tests/generated_lints.rs`
+/// checks) — so that the module carries no blanket `allow`: every helper, field, import and
+/// parameter name is decided from what the bodies actually use (see [`idents`],
+/// [`adjacent`]), not from a second copy of the conditions that produced the bodies.
 pub fn file(
     plan: &Plan,
     scene: &Scene,
@@ -280,18 +381,6 @@ pub fn file(
         Mode::Unrolled => quote!(Mode::Unrolled),
         Mode::Tables => quote!(Mode::Tables),
     };
-    let has_fns = !spec.shapes.is_empty();
-    let has_contact = [
-        TermKind::SpherePlane,
-        TermKind::SphereSphere,
-        TermKind::BoxPlane,
-    ]
-    .iter()
-    .any(|k| spec.has_term(*k));
-    let has_forces = spec.gravity || spec.locks || !spec.terms.is_empty();
-    let uses_vec3 =
-        spec.gravity || spec.has_term(TermKind::Point) || spec.has_term(TermKind::Torque);
-    let uses_jet = has_fns || spec.has_kernel(JointKernel::Lock);
 
     // ---- docs
     let eff = if effects.is_empty() {
@@ -311,45 +400,9 @@ pub fn file(
             plan.key()
         ),
         String::new(),
-        " [`Model`] implements `System`: run it with `mbdc_runtime::run_loop` or any integrator."
+        " [`Model`] implements `System`: run it with `mbdc_runtime::run` or any integrator."
             .to_string(),
     ];
-
-    // ---- imports
-    let mut uses = vec![
-        quote!(
-            use mbdc_runtime::compiled::{self, CompiledError, CompiledModel, Mode, Plan};
-        ),
-        quote!(
-            use mbdc_runtime::joints::{self, JointOut};
-        ),
-        quote!(
-            use mbdc_runtime::scene::Scene;
-        ),
-        quote!(
-            use mbdc_runtime::system::{ConstraintEval, Layout, Need, Pose, System, Twist, Wrench};
-        ),
-    ];
-    if has_forces {
-        uses.push(quote!(
-            use mbdc_runtime::forces;
-        ));
-    }
-    if has_contact {
-        uses.push(quote!(
-            use mbdc_runtime::contact;
-        ));
-    }
-    if uses_jet {
-        uses.push(quote!(
-            use mbdc_runtime::fn1::Jet2;
-        ));
-    }
-    if uses_vec3 {
-        uses.push(quote!(
-            use mbdc_runtime::nalgebra::Vector3;
-        ));
-    }
 
     // ---- constants
     let json_tok = match json {
@@ -377,90 +430,120 @@ pub fn file(
         });
     }
 
-    // ---- fields and their initialisation from the plan
-    let mut fields = vec![
-        quote!(layout: Layout,),
-        quote!(pose0: Vec<Pose>,),
-        quote!(twist0: Vec<Twist>,),
-        quote!(ground_pose: Pose,),
-        quote!(ground_twist: Twist,),
-        quote!(velocity_forces: bool,),
-        quote!(state_forces: bool,),
-    ];
-    let mut inits = vec![
-        quote!(layout: plan.interp.layout().clone(),),
-        quote!(pose0: plan.interp.initial().0.to_vec(),),
-        quote!(twist0: plan.interp.initial().1.to_vec(),),
-        quote!(ground_pose: Pose::default(),),
-        quote!(ground_twist: Twist::default(),),
-        quote!(velocity_forces: plan.interp.has_velocity_forces(),),
-        quote!(state_forces: plan.interp.has_state_forces(),),
+    // ---- fields and their initialisation from the plan: (name, declaration,
+    // initialisation); only those the code reads are emitted (below).
+    let mut fields: Vec<(&str, TokenStream, TokenStream)> = vec![
+        (
+            "layout",
+            quote!(layout: Layout,),
+            quote!(layout: plan.interp.layout().clone(),),
+        ),
+        (
+            "pose0",
+            quote!(pose0: Vec<Pose>,),
+            quote!(pose0: plan.interp.initial().0.to_vec(),),
+        ),
+        (
+            "twist0",
+            quote!(twist0: Vec<Twist>,),
+            quote!(twist0: plan.interp.initial().1.to_vec(),),
+        ),
+        (
+            "ground_pose",
+            quote!(ground_pose: Pose,),
+            quote!(ground_pose: Pose::default(),),
+        ),
+        (
+            "ground_twist",
+            quote!(ground_twist: Twist,),
+            quote!(ground_twist: Twist::default(),),
+        ),
+        (
+            "velocity_forces",
+            quote!(velocity_forces: bool,),
+            quote!(velocity_forces: plan.interp.has_velocity_forces(),),
+        ),
+        (
+            "state_forces",
+            quote!(state_forces: bool,),
+            quote!(state_forces: plan.interp.has_state_forces(),),
+        ),
     ];
     let arr = |src: TokenStream| -> TokenStream { quote!(core::array::from_fn(|i| #src[i])) };
     if spec.gravity {
-        fields.push(quote!(g: Vector3<f64>,));
-        inits.push(quote!(g: Vector3::from(d.gravity),));
-        match unrolled {
+        fields.push((
+            "g",
+            quote!(g: Vector3<f64>,),
+            quote!(g: Vector3::from(d.gravity),),
+        ));
+        fields.push(match unrolled {
             Some(u) => {
                 let n = lit_usize(u.bodies);
-                fields.push(quote!(m: [f64; #n],));
-                inits.push(quote!(m: core::array::from_fn(|i| plan.interp.layout().mass[i].m),));
+                (
+                    "m",
+                    quote!(m: [f64; #n],),
+                    quote!(m: core::array::from_fn(|i| plan.interp.layout().mass[i].m),),
+                )
             }
-            None => {
-                fields.push(quote!(m: Vec<f64>,));
-                inits.push(quote!(m: plan.interp.layout().mass.iter().map(|m| m.m).collect(),));
-            }
-        }
+            None => (
+                "m",
+                quote!(m: Vec<f64>,),
+                quote!(m: plan.interp.layout().mass.iter().map(|m| m.m).collect(),),
+            ),
+        });
     }
     match unrolled {
         Some(u) => {
             if !u.joints.is_empty() {
                 let n = lit_usize(u.joints.len());
-                fields.push(quote!(j: [compiled::JointRow; #n],));
                 let a = arr(quote!(d.joints));
-                inits.push(quote!(j: #a,));
+                fields.push(("j", quote!(j: [compiled::JointRow; #n],), quote!(j: #a,)));
             }
-            if has_fns {
+            if !spec.shapes.is_empty() {
                 let n = lit_usize(u.consts);
-                fields.push(quote!(c: [f64; #n],));
                 let a = arr(quote!(d.fns.c));
-                inits.push(quote!(c: #a,));
+                fields.push(("c", quote!(c: [f64; #n],), quote!(c: #a,)));
             }
             for (kind, field, t) in KIND_TABLES.iter() {
                 let n = u.per_kind[*kind as usize];
                 if n > 0 {
                     let (f, t, nn) = (format_ident!("{}", field), ty(t), lit_usize(n));
-                    fields.push(quote!(#f: [#t; #nn],));
                     let a = arr(quote!(d.#f));
-                    inits.push(quote!(#f: #a,));
+                    fields.push((field, quote!(#f: [#t; #nn],), quote!(#f: #a,)));
                 }
             }
         }
         None => {
-            fields.push(quote!(j: Vec<compiled::JointRow>,));
-            inits.push(quote!(j: d.joints,));
-            fields.push(quote!(terms: Vec<compiled::TermRow>,));
-            inits.push(quote!(terms: d.terms,));
-            if has_fns {
-                fields.push(quote!(c: Vec<f64>,));
-                inits.push(quote!(c: d.fns.c,));
+            fields.push((
+                "j",
+                quote!(j: Vec<compiled::JointRow>,),
+                quote!(j: d.joints,),
+            ));
+            fields.push((
+                "terms",
+                quote!(terms: Vec<compiled::TermRow>,),
+                quote!(terms: d.terms,),
+            ));
+            if !spec.shapes.is_empty() {
+                fields.push(("c", quote!(c: Vec<f64>,), quote!(c: d.fns.c,)));
             }
             for (kind, field, t) in KIND_TABLES.iter() {
                 if spec.has_term(*kind) {
                     let (f, t) = (format_ident!("{}", field), ty(t));
-                    fields.push(quote!(#f: Vec<#t>,));
-                    inits.push(quote!(#f: d.#f,));
+                    fields.push((field, quote!(#f: Vec<#t>,), quote!(#f: d.#f,)));
                 }
             }
         }
     }
     if cx.tables {
-        fields.push(quote!(tb: Vec<Vec<[f64; 2]>>,));
-        inits.push(quote!(tb: d.fns.tb,));
+        fields.push(("tb", quote!(tb: Vec<Vec<[f64; 2]>>,), quote!(tb: d.fns.tb,)));
     }
     if spec.locks {
-        fields.push(quote!(locks: Vec<mbdc_runtime::interp::Lock>,));
-        inits.push(quote!(locks: d.locks,));
+        fields.push((
+            "locks",
+            quote!(locks: Vec<mbdc_runtime::interp::Lock>,),
+            quote!(locks: d.locks,),
+        ));
     }
 
     // ---- shape functions
@@ -492,28 +575,26 @@ pub fn file(
     } else {
         quote!(out.iter_mut().for_each(|o| *o = Wrench::default());)
     };
-    let gravity_energy = if spec.gravity {
+    // The potential energy is summed from 0.0 in the interpreter's order. Its terms of
+    // zero energy (point forces, torques) are left out rather than emitted as `e += 0.0`:
+    // a sum started at +0.0 is never -0.0, so adding 0.0 never changes it and leaving it
+    // out keeps the result bit-identical.
+    let mut energies: Vec<TokenStream> = Vec::new();
+    if spec.gravity {
         match unrolled {
-            Some(u) => {
-                let v: Vec<TokenStream> = (0..u.bodies)
-                    .map(|i| {
-                        let i = lit_usize(i);
-                        quote!(e += forces::gravity_energy(self.m[#i], &self.g, &pose[#i]);)
-                    })
-                    .collect();
-                quote!(#(#v)*)
-            }
-            None => quote! {
+            Some(u) => energies.extend((0..u.bodies).map(|i| {
+                let i = lit_usize(i);
+                quote!(e += forces::gravity_energy(self.m[#i], &self.g, &pose[#i]);)
+            })),
+            None => energies.push(quote! {
                 for (p, m) in pose.iter().zip(&self.m) {
                     e += forces::gravity_energy(*m, &self.g, p);
                 }
-            },
+            }),
         }
-    } else {
-        quote!()
-    };
+    }
 
-    let (constraints_body, applied_terms, energy_terms) = match unrolled {
+    let (constraints_body, applied_terms) = match unrolled {
         Some(u) => {
             let joints: Vec<TokenStream> = u
                 .joints
@@ -522,31 +603,22 @@ pub fn file(
                 .map(|(k, j)| unrolled_joint(&cx, k, j))
                 .collect();
             let terms: Vec<TokenStream> = u.terms.iter().map(|t| unrolled_term(&cx, t)).collect();
-            let energies: Vec<TokenStream> = u
-                .terms
-                .iter()
-                .map(|t| {
-                    let s = Sides::fixed(t.a, t.b);
-                    let i = lit_usize(t.index);
-                    let e = term_energy(&spec.terms[t.combo], &s, quote!(#i));
-                    quote!(e += #e;)
-                })
-                .collect();
-            (
-                quote!(#(#joints)*),
-                quote!(#(#terms)*),
-                quote!(#(#energies)*),
-            )
+            energies.extend(u.terms.iter().filter_map(|t| {
+                let s = Sides::fixed(t.a, t.b);
+                let i = lit_usize(t.index);
+                let e = term_energy(&spec.terms[t.combo], &s, quote!(#i))?;
+                Some(quote!(e += #e;))
+            }));
+            (quote!(#(#joints)*), quote!(#(#terms)*))
         }
         None => {
             let e = quote!(e);
             let s = Sides::table(&e);
-            let arms: Vec<TokenStream> = spec
+            let arms: Vec<(Literal, TokenStream)> = spec
                 .joints
                 .iter()
                 .enumerate()
                 .map(|(i, combo)| {
-                    let i = lit_usize(i);
                     let call = joint_call(
                         &cx,
                         combo,
@@ -558,25 +630,26 @@ pub fn file(
                         (quote!(e.c), quote!(e.tb)),
                         None,
                     );
-                    quote!(#i => { #call })
+                    (lit_usize(i), call)
                 })
                 .collect();
-            let constraints = quote! {
-                for e in &self.j {
-                    match e.combo {
-                        #(#arms)*
-                        _ => {}
+            let constraints = if arms.is_empty() {
+                quote!()
+            } else {
+                let d = dispatch(quote!(e.combo), arms);
+                quote! {
+                    for e in &self.j {
+                        #d
                     }
                 }
             };
             let r = quote!(r);
             let s = Sides::table(&r);
-            let arms: Vec<TokenStream> = spec
+            let arms: Vec<(Literal, TokenStream)> = spec
                 .terms
                 .iter()
                 .enumerate()
                 .map(|(i, combo)| {
-                    let i = lit_usize(i);
                     let code = term_applied(
                         &cx,
                         combo,
@@ -587,18 +660,16 @@ pub fn file(
                         None,
                         &r,
                     );
-                    quote!(#i => { #code })
+                    (lit_usize(i), code)
                 })
                 .collect();
-            let applied = if spec.terms.is_empty() {
+            let applied = if arms.is_empty() {
                 quote!()
             } else {
+                let d = dispatch(quote!(r.combo), arms);
                 quote! {
                     for r in &self.terms {
-                        match r.combo {
-                            #(#arms)*
-                            _ => {}
-                        }
+                        #d
                     }
                 }
             };
@@ -606,25 +677,33 @@ pub fn file(
                 .terms
                 .iter()
                 .enumerate()
-                .map(|(i, combo)| {
+                .filter_map(|(i, combo)| {
                     let i = lit_usize(i);
-                    let en = term_energy(combo, &s, quote!(r.index));
-                    quote!(#i => #en,)
+                    let en = term_energy(combo, &s, quote!(r.index))?;
+                    Some(quote!(#i => #en,))
                 })
                 .collect();
-            let energy = if spec.terms.is_empty() {
-                quote!()
-            } else {
-                quote! {
+            if !arms.is_empty() {
+                energies.push(quote! {
                     for r in &self.terms {
                         e += match r.combo {
                             #(#arms)*
                             _ => 0.0,
                         };
                     }
-                }
-            };
-            (constraints, applied, energy)
+                });
+            }
+            (constraints, applied)
+        }
+    };
+    // `let e = 0.0; e` would be `clippy::let_and_return`.
+    let energy_body = if energies.is_empty() {
+        quote!(0.0)
+    } else {
+        quote! {
+            let mut e = 0.0;
+            #(#energies)*
+            e
         }
     };
 
@@ -694,16 +773,92 @@ pub fn file(
             }
         }
     };
-    if has_tree {
-        uses.push(quote!(
-            use mbdc_runtime::system::JointKernel;
-        ));
-        uses.push(quote!(
-            use mbdc_runtime::joints::JointGeom;
-        ));
+
+    // ---- the `System` methods whose parameters depend on the scene: a parameter the body
+    // does not read is named `_name`.
+    let applied_body = quote!(#gravity_applied #applied_terms);
+    let used = idents(&applied_body);
+    let [t, pose, twist] = ["t", "pose", "twist"].map(|p| param(p, &used));
+    let applied = quote! {
+        #[inline]
+        fn applied(&self, #t: f64, #pose: &[Pose], #twist: &[Twist], out: &mut [Wrench]) {
+            #applied_body
+        }
+    };
+    let used = idents(&constraints_body);
+    let [t, pose, twist, need, out] =
+        ["t", "pose", "twist", "need", "out"].map(|p| param(p, &used));
+    let constraints = quote! {
+        #[inline]
+        fn constraints(&self, #t: f64, #pose: &[Pose], #twist: &[Twist], #need: Need, #out: &mut ConstraintEval) {
+            #constraints_body
+        }
+    };
+    let pose = param("pose", &idents(&energy_body));
+    let potential_energy = quote! {
+        fn potential_energy(&self, _t: f64, #pose: &[Pose]) -> f64 {
+            #energy_body
+        }
+    };
+    let system_impl = quote! {
+        impl System for Model {
+            #[inline]
+            fn layout(&self) -> &Layout {
+                &self.layout
+            }
+
+            fn initial_state(&self, pose: &mut [Pose], twist: &mut [Twist]) {
+                pose.copy_from_slice(&self.pose0);
+                twist.copy_from_slice(&self.twist0);
+            }
+
+            #applied
+
+            #constraints
+
+            #potential_energy
+
+            #update_locks
+
+            #tree_joint
+
+            fn has_velocity_forces(&self) -> bool {
+                self.velocity_forces
+            }
+
+            fn has_state_forces(&self) -> bool {
+                self.state_forces
+            }
+        }
+    };
+
+    // ---- helpers of the table layout and of locks, where called
+    let called = idents(&system_impl);
+    let mut helpers = Vec::new();
+    if called.contains("pose_of") {
+        helpers.push(quote! {
+            #[inline]
+            fn pose_of<'a>(&'a self, b: Option<usize>, pose: &'a [Pose]) -> &'a Pose {
+                match b {
+                    Some(i) => &pose[i],
+                    None => &self.ground_pose,
+                }
+            }
+        });
     }
-    let add_pair_helper = if spec.mode == Mode::Tables && !spec.terms.is_empty() {
-        quote! {
+    if called.contains("twist_of") {
+        helpers.push(quote! {
+            #[inline]
+            fn twist_of<'a>(&'a self, b: Option<usize>, twist: &'a [Twist]) -> &'a Twist {
+                match b {
+                    Some(i) => &twist[i],
+                    None => &self.ground_twist,
+                }
+            }
+        });
+    }
+    if called.contains("add_pair") {
+        helpers.push(quote! {
             #[inline]
             fn add_pair(out: &mut [Wrench], a: Option<usize>, b: Option<usize>, w: (Wrench, Wrench)) {
                 if let Some(i) = a {
@@ -713,152 +868,155 @@ pub fn file(
                     forces::add_wrench(&mut out[i], &w.1);
                 }
             }
-        }
-    } else {
-        quote!()
-    };
-    let energy_mut = if spec.gravity || !spec.terms.is_empty() {
-        quote!(mut)
+        });
+    }
+
+    // ---- the fields the code reads (an unread field is `dead_code`)
+    let read = adjacent(&quote!(#system_impl #(#helpers)*), "self .", "");
+    fields.retain(|(f, _, _)| read.contains(*f));
+    let (decls, inits): (Vec<TokenStream>, Vec<TokenStream>) =
+        fields.into_iter().map(|(_, d, i)| (d, i)).unzip();
+    let d_binding = if idents(&quote!(#(#inits)*)).contains("d") {
+        quote!(let d = plan.data;)
     } else {
         quote!()
     };
 
-    let d_binding = quote!(let d = plan.data;);
     let mod_docs = doc.iter().map(|d| quote!(#![doc = #d]));
+    let body = quote! {
+        #(#consts)*
+
+        #(#shape_items)*
+
+        /// The scene as a `System`: structure in code, numbers in the fields.
+        #[derive(Clone, Debug)]
+        pub struct Model {
+            #(#decls)*
+        }
+
+        impl Model {
+            /// The model with the numbers of the scene it was generated from.
+            ///
+            /// # Panics
+            /// Never for code generated by this version: the embedded scene was
+            /// checked when the code was generated.
+            pub fn new() -> Model {
+                match Self::try_new() {
+                    Ok(m) => m,
+                    Err(e) => panic!("the embedded scene of `{}`: {e}", NAME),
+                }
+            }
+
+            /// [`Model::new`] without panicking.
+            pub fn try_new() -> Result<Model, CompiledError> {
+                <Model as CompiledModel>::from_scene(&<Model as CompiledModel>::default_scene()?)
+            }
+
+            /// The scene the code was generated from.
+            pub fn scene() -> Result<Scene, CompiledError> {
+                <Model as CompiledModel>::default_scene()
+            }
+
+            fn from_plan(plan: Plan) -> Model {
+                #d_binding
+                Model {
+                    #(#inits)*
+                }
+            }
+
+            #(#helpers)*
+        }
+
+        impl Default for Model {
+            fn default() -> Model {
+                Model::new()
+            }
+        }
+
+        impl CompiledModel for Model {
+            const NAME: &'static str = NAME;
+            const KEY: u64 = KEY;
+            const MODE: Mode = #mode_tok;
+
+            fn from_scene(scene: &Scene) -> Result<Model, CompiledError> {
+                Ok(Model::from_plan(Plan::checked(scene, #mode_tok, KEY)?))
+            }
+
+            fn default_scene() -> Result<Scene, CompiledError> {
+                compiled::scene_from_json(SCENE_JSON)
+            }
+
+            fn set_initial_state(&mut self, pose: &[Pose], twist: &[Twist]) {
+                self.pose0.copy_from_slice(pose);
+                self.twist0.copy_from_slice(twist);
+            }
+        }
+
+        #system_impl
+    };
+
+    // ---- imports: each name only if the code uses it (a module through a `name::` path)
+    let names = idents(&body);
+    let paths = adjacent(&body, "", ": :");
+    let uses = IMPORTS.iter().filter_map(|(path, items)| {
+        let kept: Vec<Ident> = items
+            .iter()
+            .filter_map(|item| {
+                let used = match *item {
+                    "self" => paths.contains(path.rsplit("::").next().unwrap_or(path)),
+                    _ => names.contains(*item),
+                };
+                used.then(|| format_ident!("{}", item))
+            })
+            .collect();
+        let path: TokenStream = path.parse().unwrap_or_default();
+        match kept.as_slice() {
+            [] => None,
+            [one] if one == "self" => Some(quote!(use #path;)),
+            [one] => Some(quote!(use #path::#one;)),
+            _ => Some(quote!(use #path::{#(#kept),*};)),
+        }
+    });
+
     quote! {
-        #[allow(unused_imports, unused_variables, unused_mut, unused_parens, dead_code, non_snake_case, clippy::all)]
         pub mod #module_ident {
             #(#mod_docs)*
             #(#uses)*
 
-            #(#consts)*
-
-            #(#shape_items)*
-
-            /// The scene as a `System`: structure in code, numbers in the fields.
-            #[derive(Clone, Debug)]
-            pub struct Model {
-                #(#fields)*
-            }
-
-            impl Model {
-                /// The model with the numbers of the scene it was generated from.
-                ///
-                /// # Panics
-                /// Never for code generated by this version: the embedded scene was
-                /// checked when the code was generated.
-                pub fn new() -> Model {
-                    match Self::try_new() {
-                        Ok(m) => m,
-                        Err(e) => panic!("the embedded scene of `{}`: {e}", NAME),
-                    }
-                }
-
-                /// [`Model::new`] without panicking.
-                pub fn try_new() -> Result<Model, CompiledError> {
-                    <Model as CompiledModel>::from_scene(&<Model as CompiledModel>::default_scene()?)
-                }
-
-                /// The scene the code was generated from.
-                pub fn scene() -> Result<Scene, CompiledError> {
-                    <Model as CompiledModel>::default_scene()
-                }
-
-                fn from_plan(plan: Plan) -> Model {
-                    #d_binding
-                    Model {
-                        #(#inits)*
-                    }
-                }
-
-                #[inline]
-                fn pose_of<'a>(&'a self, b: Option<usize>, pose: &'a [Pose]) -> &'a Pose {
-                    match b {
-                        Some(i) => &pose[i],
-                        None => &self.ground_pose,
-                    }
-                }
-
-                #[inline]
-                fn twist_of<'a>(&'a self, b: Option<usize>, twist: &'a [Twist]) -> &'a Twist {
-                    match b {
-                        Some(i) => &twist[i],
-                        None => &self.ground_twist,
-                    }
-                }
-
-                #add_pair_helper
-            }
-
-            impl Default for Model {
-                fn default() -> Model {
-                    Model::new()
-                }
-            }
-
-            impl CompiledModel for Model {
-                const NAME: &'static str = NAME;
-                const KEY: u64 = KEY;
-                const MODE: Mode = #mode_tok;
-
-                fn from_scene(scene: &Scene) -> Result<Model, CompiledError> {
-                    Ok(Model::from_plan(Plan::checked(scene, #mode_tok, KEY)?))
-                }
-
-                fn default_scene() -> Result<Scene, CompiledError> {
-                    compiled::scene_from_json(SCENE_JSON)
-                }
-
-                fn set_initial_state(&mut self, pose: &[Pose], twist: &[Twist]) {
-                    self.pose0.copy_from_slice(pose);
-                    self.twist0.copy_from_slice(twist);
-                }
-            }
-
-            impl System for Model {
-                #[inline]
-                fn layout(&self) -> &Layout {
-                    &self.layout
-                }
-
-                fn initial_state(&self, pose: &mut [Pose], twist: &mut [Twist]) {
-                    pose.copy_from_slice(&self.pose0);
-                    twist.copy_from_slice(&self.twist0);
-                }
-
-                #[inline]
-                fn applied(&self, t: f64, pose: &[Pose], twist: &[Twist], out: &mut [Wrench]) {
-                    #gravity_applied
-                    #applied_terms
-                }
-
-                #[inline]
-                fn constraints(&self, t: f64, pose: &[Pose], twist: &[Twist], need: Need, out: &mut ConstraintEval) {
-                    #constraints_body
-                }
-
-                fn potential_energy(&self, _t: f64, pose: &[Pose]) -> f64 {
-                    let #energy_mut e = 0.0;
-                    #gravity_energy
-                    #energy_terms
-                    e
-                }
-
-                #update_locks
-
-                #tree_joint
-
-                fn has_velocity_forces(&self) -> bool {
-                    self.velocity_forces
-                }
-
-                fn has_state_forces(&self) -> bool {
-                    self.state_forces
-                }
-            }
+            #body
         }
     }
 }
+
+/// The runtime's items the generated code may use: (module path, names), `self` for the
+/// module itself (used through `module::` paths). Emitted in this order, each name only if
+/// the code uses it.
+const IMPORTS: &[(&str, &[&str])] = &[
+    (
+        "mbdc_runtime::compiled",
+        &["self", "CompiledError", "CompiledModel", "Mode", "Plan"],
+    ),
+    ("mbdc_runtime::joints", &["self", "JointOut"]),
+    ("mbdc_runtime::scene", &["Scene"]),
+    (
+        "mbdc_runtime::system",
+        &[
+            "ConstraintEval",
+            "Layout",
+            "Need",
+            "Pose",
+            "System",
+            "Twist",
+            "Wrench",
+        ],
+    ),
+    ("mbdc_runtime::forces", &["self"]),
+    ("mbdc_runtime::contact", &["self"]),
+    ("mbdc_runtime::fn1", &["Jet2"]),
+    ("mbdc_runtime::nalgebra", &["Vector3"]),
+    ("mbdc_runtime::system", &["JointKernel"]),
+    ("mbdc_runtime::joints", &["JointGeom"]),
+];
 
 fn unrolled_joint(cx: &Ctx<'_>, k: usize, j: &UJoint) -> TokenStream {
     let combo = &cx.spec.joints[j.combo];

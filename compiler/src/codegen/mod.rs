@@ -35,14 +35,17 @@
 //! 1000-link chain is as long as that of a 100-link chain, and repeated structure (a `for`
 //! loop in the model) costs nothing in source size.
 //!
-//! **Linear algebra.** In [`Mode::Unrolled`], when the interpreter's solver would use the dense
-//! Cholesky factorization for `εI + h²BM⁻¹Bᵀ` (fewer than 40 rows), the generated model hands
-//! the integrators a fixed-size solver through [`System::k_solver`]
-//! (`mbdc_runtime::linalg::fixed`): `M⁻¹` per body precomputed, `BM⁻¹Bᵀ` assembled on the
-//! block sparsity known from the joint list, the same elimination as the dense kernel with
-//! constant sizes — same operations in the same order, so again bit-identical.
+//! **Linear algebra is the runtime's.** The generated model supplies the residuals, Jacobian
+//! rows, forces and energy; it has no solver of its own. The integrators build their
+//! constraint solver (`mbdc_runtime::linalg::KSolver`: `εI + s·BM⁻¹Bᵀ` assembled on the
+//! sparsity derived from the [`Layout`](mbdc_runtime::system::Layout), dense or sparse
+//! Cholesky chosen by size and density) from the model's `layout()`, exactly as for the
+//! interpreter, so the two paths also share every factorization.
 //!
-//! [`System::k_solver`]: mbdc_runtime::system::System::k_solver
+//! **Warning-free.** The generated module has no blanket `allow`: helpers, fields, imports
+//! and parameter names follow what the bodies use, so that it compiles under
+//! `#![deny(warnings)]` and `#![deny(clippy::all)]` in the including crate
+//! (`tests/generated_lints.rs`).
 
 mod emit;
 mod shape;

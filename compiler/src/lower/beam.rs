@@ -13,10 +13,10 @@ use mbdc_runtime::scene::{Attachment, Beam, BeamAttachment, BodyRef, Material, S
 use nalgebra::Vector3;
 
 use super::body::num;
+use super::eval::ident_of;
 use super::props::{one, req, Key};
 use super::{EntKind, Lowerer, PDecl, Reported, Scope, R};
 use crate::diag::{codes, Diagnostic};
-use crate::eval::ident_of;
 use crate::geom;
 use crate::source::Sources;
 use crate::units::Dim;

@@ -4,10 +4,10 @@ use mbdc_dsl::ast::{Expr, ExprKind};
 use mbdc_runtime::scene::{Body, Mat3, Quat};
 use nalgebra::{Matrix3, Vector3};
 
+use super::eval::ident_of;
 use super::props::{one, ArgSpec, Key};
 use super::{Lowerer, PDecl, Reported, Scope, R};
 use crate::diag::{codes, Diagnostic};
-use crate::eval::ident_of;
 use crate::geom::{self, InertiaProblem};
 use crate::source::Sources;
 use crate::units::Dim;

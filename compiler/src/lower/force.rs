@@ -4,10 +4,10 @@ use mbdc_dsl::ast::{Expr, ExprKind};
 use mbdc_runtime::scene::{Attachment, BodyRef, Force, ForceFrame, ForceKind, JointKind};
 
 use super::body::num;
+use super::eval::ident_of;
 use super::props::{opt, pos, req};
 use super::{EntKind, Lowerer, PDecl, Reported, Scope, R};
 use crate::diag::{codes, Diagnostic};
-use crate::eval::ident_of;
 use crate::geom;
 use crate::source::Sources;
 use crate::units::Dim;

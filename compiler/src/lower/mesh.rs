@@ -7,12 +7,12 @@ use mbdc_dsl::ast::{Expr, ExprKind, ItemKind, Span};
 use mbdc_runtime::scene::{ElementKind, Fn1, Mesh, MeshCondition, NodeSet, Vec3};
 
 use super::body::num;
+use super::eval::ident_of;
 use super::msh;
 use super::props::{one, req, Key};
 use super::{Lowerer, PDecl, Reported, Scope, R};
 use crate::diag::{codes, Diagnostic};
 use crate::env::BindKind;
-use crate::eval::ident_of;
 use crate::source::Sources;
 use crate::units::Dim;
 use crate::value::{Value, Q};

@@ -9,12 +9,16 @@
 //! 2. **Lowering** (the other modules): every declaration becomes Scene data, bodies first
 //!    (joints need their poses), then joints, forces, contacts, beams, meshes, settings.
 //!
+//! Expressions are evaluated by [`eval`] (an `impl Lowerer` like the others, used by
+//! every phase).
+//!
 //! Errors are collected, never thrown: a failing declaration is skipped and the others are
 //! still checked. The scene is returned only if there was no error.
 
 mod beam;
 mod body;
 mod contact;
+mod eval;
 mod expand;
 mod force;
 mod joint;

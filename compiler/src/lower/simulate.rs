@@ -7,10 +7,10 @@ use mbdc_runtime::scene::{
 };
 
 use super::body::num;
+use super::eval::ident_of;
 use super::props::{one, Key};
 use super::{EntKind, Lowerer, Reported, Scope, Single, R};
 use crate::diag::{codes, Diagnostic};
-use crate::eval::ident_of;
 use crate::units::Dim;
 use crate::value::{Value, Var};
 

@@ -9,9 +9,9 @@
 use mbdc_dsl::ast::{Arg, BinOp, Expr, ExprKind, Span, UnOp, Unit};
 use mbdc_runtime::scene::{Fn1, UnaryFn};
 
+use super::{Lowerer, Reported, Scope, R};
 use crate::diag::{codes, Diagnostic};
 use crate::fn1;
-use crate::lower::{Lowerer, Reported, Scope, R};
 use crate::suggest;
 use crate::units::{self, Dim};
 use crate::value::{Attach, NameRef, PointSpec, Value, Var, Q};
