@@ -1,8 +1,6 @@
 //! The token emitter behind [`super::generate`].
 
-use mbdc_runtime::compiled::{
-    JointCombo, Mode, Plan, Spec, TermCombo, TermKind, UJoint, UTerm,
-};
+use mbdc_runtime::compiled::{JointCombo, Mode, Plan, Spec, TermCombo, TermKind, UJoint, UTerm};
 use mbdc_runtime::scene::{ForceFrame, Scene};
 use mbdc_runtime::system::JointKernel;
 use std::collections::HashSet;
