@@ -8,6 +8,7 @@ use std::collections::HashSet;
 use proc_macro2::{Ident, Literal, TokenStream, TokenTree};
 use quote::{format_ident, quote};
 
+use super::token_scan::{idents, param};
 use super::{lit_hex, lit_usize, shape, SceneJson};
 
 /// Per-kind geometry tables: (term kind, field name, element type).
@@ -283,24 +284,6 @@ fn dispatch(scrutinee: TokenStream, arms: Vec<(Literal, TokenStream)>) -> TokenS
     }
 }
 
-/// Every identifier in `ts` (at any depth).
-pub(super) fn idents(ts: &TokenStream) -> HashSet<String> {
-    fn walk(ts: &TokenStream, out: &mut HashSet<String>) {
-        for t in ts.clone() {
-            match t {
-                TokenTree::Ident(i) => {
-                    out.insert(i.to_string());
-                }
-                TokenTree::Group(g) => walk(&g.stream(), out),
-                _ => {}
-            }
-        }
-    }
-    let mut out = HashSet::new();
-    walk(ts, &mut out);
-    out
-}
-
 /// The identifiers of `ts` that follow `prefix` (a sequence of identifiers and
 /// punctuation, such as `self .`) or precede `suffix` (such as `::`), at any depth.
 fn adjacent(ts: &TokenStream, prefix: &str, suffix: &str) -> HashSet<String> {
@@ -338,15 +321,6 @@ fn adjacent(ts: &TokenStream, prefix: &str, suffix: &str) -> HashSet<String> {
     out
 }
 
-/// A parameter named `name`, or `_name` if `used` (the body's identifiers) does not have it.
-pub(super) fn param(name: &str, used: &HashSet<String>) -> Ident {
-    if used.contains(name) {
-        format_ident!("{}", name)
-    } else {
-        format_ident!("_{}", name)
-    }
-}
-
 fn ty(s: &str) -> TokenStream {
     s.parse().unwrap_or_default()
 }
@@ -356,7 +330,7 @@ fn ty(s: &str) -> TokenStream {
 /// The code is generated clean — it compiles without warnings under `#![deny(warnings)]`
 /// and `#![deny(clippy::all)]` in the crate that includes it (`tests/generated_lints.rs`
 /// checks) — so that the module carries no blanket `allow`: every helper, field, import and
-/// parameter name is decided from what the bodies actually use (see [`idents`],
+/// parameter name is decided from what the bodies actually use (see [`idents`](super::token_scan::idents),
 /// [`adjacent`]), not from a second copy of the conditions that produced the bodies.
 pub fn file(
     plan: &Plan,

@@ -49,6 +49,7 @@
 
 mod emit;
 mod shape;
+mod token_scan;
 
 use mbdc_runtime::compiled::{Mode, Plan};
 use mbdc_runtime::interp::InterpError;
