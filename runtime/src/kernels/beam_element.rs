@@ -138,7 +138,7 @@ impl BeamSection {
             ("rhoA", s.rho_a),
             ("rhoI", s.rho_i),
         ] {
-            if !(value > 0.0 && value.is_finite()) {
+            if value.is_nan() || value <= 0.0 || value.is_infinite() {
                 return Err(BeamError::NonPositive { what, value });
             }
         }
@@ -257,14 +257,14 @@ pub fn convected_frame(
     let d = x2 - x1;
     let l = d.norm();
     let scale = x1.norm().max(x2.norm());
-    if !(l > 1e-12 * scale) || l == 0.0 || !l.is_finite() {
+    if !l.is_finite() || l == 0.0 || l <= 1e-12 * scale {
         return Err(BeamError::ZeroLength { length: l });
     }
     let a1 = d / l;
     let b3 = c1.column(2).into_owned();
     let a2 = b3.cross(&a1);
     let s = a2.norm();
-    if !(s > 1e-8) {
+    if s.is_nan() || s <= 1e-8 {
         return Err(BeamError::DegenerateFrame);
     }
     let a2 = a2 / s;
@@ -287,7 +287,7 @@ fn section_rotation(c: &Matrix3<f64>, t: &Matrix3<f64>) -> Matrix3<f64> {
 /// rotation by θ; `None` near θ = π, where it is singular.
 pub fn cayley_rotation_vector(ds: &Matrix3<f64>) -> Option<Vector3<f64>> {
     let den = 1.0 + ds.trace();
-    if !(den > 1e-12) {
+    if den.is_nan() || den <= 1e-12 {
         return None;
     }
     let f = 2.0 / den;
