@@ -36,7 +36,8 @@
 //! constraint Jacobian; it needs only the contract.)
 //!
 //! **Where new things go.** A flexible-beam or solid element's internal force: a kernel,
-//! `kernels/beam_element.rs`, `kernels/solid_element.rs`; its data in `contract/scene.rs`;
+//! [`beam_element`] (`kernels/beam_element.rs`, there), `kernels/solid_element.rs`; its
+//! data in `contract/scene.rs`;
 //! its step limit in `analysis/step_limits.rs`. A new integrator: a file (or folder) in
 //! `integrators/`, chosen in `integrators::make`. A new writer: `driver/output/`. A new joint
 //! kind: its kernel in `kernels/joints.rs`, its `Scene` variant
@@ -50,7 +51,7 @@
 //!
 //! - data in: [`scene`]; the contract: [`system`], [`math`];
 //! - kernels (called by generated code): [`joints`], [`tree_joints`], [`forces`],
-//!   [`contact`], [`fn1`];
+//!   [`contact`], [`fn1`], [`beam_element`];
 //! - before a run: [`topology`], [`coordinates`], [`effects`], [`step_limits`],
 //!   [`input_limits`];
 //! - running: [`linalg`], [`integrators`] (`integrators::make` builds the method a scene
@@ -75,7 +76,7 @@ pub mod study;
 pub use analysis::{coordinates, effects, input_limits, step_limits, topology};
 pub use contract::{math, scene, system};
 pub use driver::{assemble, energy, output, run_loop};
-pub use kernels::{contact, fn1, forces, joints, tree_joints};
+pub use kernels::{beam_element, contact, fn1, forces, joints, tree_joints};
 
 /// The linear-algebra crate of the runtime's types ([`system::Pose`] etc.), re-exported so
 /// that generated code depends on this crate only.

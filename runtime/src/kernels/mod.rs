@@ -2,6 +2,8 @@
 //! configuration, into caller-owned buffers. They know the contract (floor 0) and nothing
 //! above it: no integrator, no solver, no writer.
 //!
+//! - [`beam_element`]: the flexible-beam element's internal force (co-rotational,
+//!   incremental, shear-deformable; notes B §6.4), its strain rates and lumped mass.
 //! - [`joints`]: the constraint rows of every joint kind (value, Jacobian, velocity and
 //!   acceleration terms).
 //! - [`tree_joints`]: the null-space blocks of tree joints (`u_c = X u_p + S q̇`) and their
@@ -10,9 +12,10 @@
 //! - [`contact`]: penalty contact laws (sphere–plane, sphere–sphere, box–plane).
 //! - [`fn1`]: time functions (`f(t)` trees) with their first two derivatives.
 //!
-//! Where new element kernels go: a flexible-beam element's internal force is a kernel here
-//! (`beam_element.rs`), and so is a solid element's (`solid_element.rs`).
+//! Where new element kernels go: a solid element's internal force is a kernel here
+//! (`solid_element.rs`), as the beam element's is.
 
+pub mod beam_element;
 pub mod contact;
 pub mod fn1;
 pub mod forces;
