@@ -154,6 +154,11 @@ pub fn measure(track: &Track, reference: &dyn RefSolution) -> Result<Errors, Ref
     Ok(e)
 }
 
+/// Compare two tracks of the same frame times: `a` against `b` as the reference.
+pub(super) fn difference(a: &Track, b: &Track) -> Option<Errors> {
+    measure(a, &Sampled::new(b.clone())).ok()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -187,9 +192,4 @@ mod tests {
         shifted.t[3] += 1e-6;
         assert!(measure(&shifted, &Sampled::new(exact)).is_err());
     }
-}
-
-/// Compare two tracks of the same frame times: `a` against `b` as the reference.
-pub(super) fn difference(a: &Track, b: &Track) -> Option<Errors> {
-    measure(a, &Sampled::new(b.clone())).ok()
 }
