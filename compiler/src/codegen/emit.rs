@@ -1,8 +1,6 @@
 //! The token emitter behind [`super::generate`].
 
-use mbdc_runtime::compiled::{
-    JointCombo, Mode, Plan, Spec, TermCombo, TermKind, UJoint, UTerm,
-};
+use mbdc_runtime::compiled::{JointCombo, Mode, Plan, Spec, TermCombo, TermKind, UJoint, UTerm};
 use mbdc_runtime::scene::{ForceFrame, Scene};
 use mbdc_runtime::system::JointKernel;
 use std::collections::HashSet;
@@ -10,6 +8,7 @@ use std::collections::HashSet;
 use proc_macro2::{Ident, Literal, TokenStream, TokenTree};
 use quote::{format_ident, quote};
 
+use super::names::{idents, param};
 use super::{lit_hex, lit_usize, shape, SceneJson};
 
 /// Per-kind geometry tables: (term kind, field name, element type).
@@ -285,24 +284,6 @@ fn dispatch(scrutinee: TokenStream, arms: Vec<(Literal, TokenStream)>) -> TokenS
     }
 }
 
-/// Every identifier in `ts` (at any depth).
-pub(super) fn idents(ts: &TokenStream) -> HashSet<String> {
-    fn walk(ts: &TokenStream, out: &mut HashSet<String>) {
-        for t in ts.clone() {
-            match t {
-                TokenTree::Ident(i) => {
-                    out.insert(i.to_string());
-                }
-                TokenTree::Group(g) => walk(&g.stream(), out),
-                _ => {}
-            }
-        }
-    }
-    let mut out = HashSet::new();
-    walk(ts, &mut out);
-    out
-}
-
 /// The identifiers of `ts` that follow `prefix` (a sequence of identifiers and
 /// punctuation, such as `self .`) or precede `suffix` (such as `::`), at any depth.
 fn adjacent(ts: &TokenStream, prefix: &str, suffix: &str) -> HashSet<String> {
@@ -338,15 +319,6 @@ fn adjacent(ts: &TokenStream, prefix: &str, suffix: &str) -> HashSet<String> {
         }
     }
     out
-}
-
-/// A parameter named `name`, or `_name` if `used` (the body's identifiers) does not have it.
-pub(super) fn param(name: &str, used: &HashSet<String>) -> Ident {
-    if used.contains(name) {
-        format_ident!("{}", name)
-    } else {
-        format_ident!("_{}", name)
-    }
 }
 
 fn ty(s: &str) -> TokenStream {

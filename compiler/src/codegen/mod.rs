@@ -48,6 +48,7 @@
 //! (`tests/generated_lints.rs`).
 
 mod emit;
+mod names;
 mod shape;
 
 use mbdc_runtime::compiled::{Mode, Plan};

@@ -123,8 +123,8 @@ pub fn unary_method(u: UnaryFn) -> &'static str {
 pub fn item(i: usize, s: &FnShape) -> TokenStream {
     let name = format_ident!("f{}", i);
     let body = expr(s);
-    let used = super::emit::idents(&body);
-    let [x, c, tb] = ["x", "c", "tb"].map(|p| super::emit::param(p, &used));
+    let used = super::names::idents(&body);
+    let [x, c, tb] = ["x", "c", "tb"].map(|p| super::names::param(p, &used));
     let doc = format!(" Time function shape {i}: `c` its constants, `tb` its tables.");
     quote! {
         #[doc = #doc]
