@@ -41,7 +41,25 @@ enum Command {
     Plot(commands::plot::Args),
 }
 
+/// Restores the default action of SIGPIPE (end the process quietly), as Unix tools do.
+///
+/// Rust's runtime ignores SIGPIPE, so a write to a closed pipe (`mbdc check f.mbd | head -1`)
+/// returns an error and `println!` panics on it. With the default action the process ends at
+/// that write, like `cat` or `grep`, on stdout and stderr alike (progress bars included).
+#[cfg(unix)]
+fn quiet_on_closed_pipe() {
+    // SAFETY: called first thing in `main`, before any other thread exists; `signal` with
+    // SIG_DFL installs no handler.
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+    }
+}
+
+#[cfg(not(unix))]
+fn quiet_on_closed_pipe() {}
+
 fn main() -> ExitCode {
+    quiet_on_closed_pipe();
     let cli = Cli::parse();
     match cli.command {
         Command::Check(a) => commands::check::run(a),

@@ -6,13 +6,130 @@
 //! [`Diagnostic::with_sources`] gives a value that implements [`miette::Diagnostic`] with
 //! its source code attached, for miette's graphical report handler.
 
+use std::borrow::Cow;
+use std::collections::{BTreeMap, BTreeSet};
 use std::fmt::{self, Write as _};
 use std::sync::Arc;
 
 use mbdc_dsl::ast::Span;
 use miette::{LabeledSpan, NamedSource, SourceCode};
 
-use crate::source::{FileId, Sources};
+use crate::source::{FileId, SourceFile, Sources};
+
+/// Source lines longer than this many bytes are shown clipped around their labels: this many
+/// characters at most, with `…` where text is left out. A generated one-line model can be
+/// megabytes long: echoing it whole would flood the terminal, and miette's renderer panics
+/// on a label past column 65 535 (Rust's formatting widths are 16-bit).
+pub const MAX_SHOWN_LINE: usize = 200;
+/// Characters kept before the labelled span on a clipped line.
+const CLIP_LEAD: usize = 60;
+/// Marks text left out of a clipped line.
+const ELLIPSIS: &str = "…";
+
+/// The byte window `[start, end)` of `line` shown for a label at byte `anchor` of it: the
+/// whole line if it is short, else [`CLIP_LEAD`] characters before the anchor and at most
+/// [`MAX_SHOWN_LINE`] characters in all.
+fn clip_window(line: &str, anchor: usize) -> (usize, usize) {
+    if line.len() <= MAX_SHOWN_LINE {
+        return (0, line.len());
+    }
+    let mut anchor = anchor.min(line.len());
+    while !line.is_char_boundary(anchor) {
+        anchor -= 1;
+    }
+    let start = line[..anchor]
+        .char_indices()
+        .rev()
+        .nth(CLIP_LEAD - 1)
+        .map_or(0, |(i, _)| i);
+    let end = line[start..]
+        .char_indices()
+        .nth(MAX_SHOWN_LINE)
+        .map_or(line.len(), |(i, _)| start + i);
+    (start, end)
+}
+
+/// The window of `line` (see [`clip_window`]) with `…` marks where text is left out, and
+/// the byte position in it of the window's start.
+fn clipped_line(line: &str, (start, end): (usize, usize)) -> (Cow<'_, str>, usize) {
+    if start == 0 && end == line.len() {
+        return (Cow::Borrowed(line), 0);
+    }
+    let lead = if start > 0 { ELLIPSIS } else { "" };
+    let tail = if end < line.len() { ELLIPSIS } else { "" };
+    (
+        Cow::Owned(format!("{lead}{}{tail}", &line[start..end])),
+        lead.len(),
+    )
+}
+
+/// What miette is given of a file when a line it would show is too long to show whole: the
+/// lines of the labels and one either side, each clipped, the other lines left empty so that
+/// line numbers stay right.
+struct ClippedSource {
+    text: String,
+    /// Per kept line, in order: its window in the original text (byte range) and where the
+    /// window starts in `text`.
+    pieces: Vec<(usize, usize, usize)>,
+}
+
+impl ClippedSource {
+    /// `None` if every line shown for these byte ranges is short enough to show whole.
+    /// A line's window is anchored at the first of `spans` (main label first) starting on it.
+    fn new(file: &SourceFile, spans: &[(usize, usize)]) -> Option<ClippedSource> {
+        let last = file.line_count().saturating_sub(1);
+        let mut lines = BTreeSet::new();
+        let mut anchors: BTreeMap<usize, usize> = BTreeMap::new();
+        for &(start, end) in spans {
+            let (first, past) = (file.line_index(start), file.line_index(end));
+            anchors.entry(first).or_insert(start);
+            lines.extend(first.saturating_sub(1)..=(past + 1).min(last));
+        }
+        if lines
+            .iter()
+            .all(|&l| file.line_range(l).len() <= MAX_SHOWN_LINE)
+        {
+            return None;
+        }
+        let mut text = String::new();
+        let mut pieces = Vec::new();
+        for l in 0..=last {
+            if lines.contains(&l) {
+                let range = file.line_range(l);
+                let line = &file.text[range.clone()];
+                let anchor = anchors.get(&l).map_or(0, |a| a - range.start);
+                let window = clip_window(line, anchor);
+                let (shown, at) = clipped_line(line, window);
+                pieces.push((
+                    range.start + window.0,
+                    range.start + window.1,
+                    text.len() + at,
+                ));
+                text.push_str(&shown);
+            }
+            if l < last {
+                text.push('\n');
+            }
+        }
+        Some(ClippedSource { text, pieces })
+    }
+
+    /// Whether a byte offset of the original text is inside a shown window.
+    fn shows(&self, offset: usize) -> bool {
+        self.pieces
+            .iter()
+            .any(|&(start, end, _)| (start..=end).contains(&offset))
+    }
+
+    /// Where a byte offset of the original text is shown (clamped into its line's window).
+    fn map(&self, offset: usize) -> usize {
+        let i = self.pieces.partition_point(|p| p.0 <= offset);
+        match i.checked_sub(1).map(|i| self.pieces[i]) {
+            Some((start, end, at)) => at + offset.min(end) - start,
+            None => self.pieces.first().map_or(0, |p| p.2),
+        }
+    }
+}
 
 /// How serious a diagnostic is.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
@@ -245,23 +362,27 @@ impl Diagnostic {
                 continue;
             };
             let (line, col) = f.line_col(l.span.start);
-            let (end_line, end_col) = f.line_col(l.span.end.max(l.span.start));
-            let text = f.line_text(line);
+            let full = f.line_text(line);
+            // byte offsets in the line of the span's start and (on this line) end
+            let line_start = f.line_range(line - 1).start;
+            let from = l.span.start.clamp(line_start, line_start + full.len()) - line_start;
+            let to = l.span.end.clamp(line_start + from, line_start + full.len()) - line_start;
+            let window = clip_window(full, from);
+            let (text, at) = clipped_line(full, window);
+            let chars = |a: usize, b: usize| full.get(a..b).map_or(b - a, |s| s.chars().count());
+            // the column and width of the underline in the shown text
+            let shown_col = text[..at].chars().count() + chars(window.0, from.max(window.0)) + 1;
+            let width = chars(from.max(window.0), to.min(window.1)).max(1);
             let gutter = line.to_string().len();
             let pad = " ".repeat(gutter);
             let _ = writeln!(out, "{pad}--> {}:{}:{}", f.name, line, col);
             let _ = writeln!(out, "{pad} |");
             let _ = writeln!(out, "{line} | {text}");
-            let width = if end_line == line {
-                end_col.saturating_sub(col).max(1)
-            } else {
-                text.chars().count().saturating_sub(col - 1).max(1)
-            };
             let mark = if l.primary { '^' } else { '-' };
             let under: String = std::iter::repeat_n(mark, width).collect();
             let lead: String = text
                 .chars()
-                .take(col - 1)
+                .take(shown_col - 1)
                 .map(|c| if c == '\t' { '\t' } else { ' ' })
                 .collect();
             if l.message.is_empty() {
@@ -321,13 +442,36 @@ pub struct SourcedDiagnostic {
 impl SourcedDiagnostic {
     fn new(d: &Diagnostic, sources: &Sources) -> SourcedDiagnostic {
         let main_file = d.main_label().map(|l| l.file);
+        let text_len = main_file.map_or(0, |f| sources.text(f).len());
+        let span_of = |l: &Label| {
+            let start = l.span.start.min(text_len);
+            (start, l.span.end.clamp(start, text_len))
+        };
+        // the main label first: it anchors the window of its line
+        let in_main: Vec<(usize, usize)> = d
+            .main_label()
+            .into_iter()
+            .chain(&d.labels)
+            .filter(|l| Some(l.file) == main_file)
+            .map(span_of)
+            .collect();
+        // a line too long to show whole: give miette the clipped lines instead
+        let clipped = main_file
+            .and_then(|f| sources.get(f))
+            .and_then(|sf| ClippedSource::new(sf, &in_main).map(|c| (sf, c)));
         let mut labels = Vec::new();
         let mut others: Vec<&Label> = Vec::new();
         for l in &d.labels {
             if Some(l.file) == main_file {
-                let text = sources.text(l.file);
-                let start = l.span.start.min(text.len());
-                let end = l.span.end.clamp(start, text.len());
+                let (mut start, mut end) = span_of(l);
+                if let Some((_, c)) = &clipped {
+                    if !c.shows(start) {
+                        // left out of the clipped line: shown on its own, as a related note
+                        others.push(l);
+                        continue;
+                    }
+                    (start, end) = (c.map(start), c.map(end));
+                }
                 let msg = if l.message.is_empty() {
                     None
                 } else {
@@ -342,11 +486,31 @@ impl SourcedDiagnostic {
                 others.push(l);
             }
         }
-        let src = main_file.and_then(|f| {
-            sources
-                .get(f)
-                .map(|sf| NamedSource::new(sf.name.clone(), sf.text.clone()).with_language("mbd"))
-        });
+        let mut help = d.help.clone();
+        let src = match &clipped {
+            Some((sf, c)) => {
+                // miette's column is one in the clipped text: say where the label really is
+                let main = d.main_label().map(|l| (l, sf.line_col(l.span.start)));
+                let long = main.map_or(0, |(_, (line, _))| sf.line_range(line - 1).len());
+                if let Some((_, (line, col))) = main.filter(|_| long > MAX_SHOWN_LINE) {
+                    let note = format!(
+                        "line {line} is {long} bytes long and shown clipped; the label is at {}:{line}:{col}",
+                        sf.name
+                    );
+                    help = Some(match help {
+                        Some(h) => format!("{h}\n{note}"),
+                        None => note,
+                    });
+                }
+                let text = Arc::<str>::from(c.text.as_str());
+                Some(NamedSource::new(sf.name.clone(), text).with_language("mbd"))
+            }
+            None => main_file.and_then(|f| {
+                sources.get(f).map(|sf| {
+                    NamedSource::new(sf.name.clone(), sf.text.clone()).with_language("mbd")
+                })
+            }),
+        };
         let related = others
             .into_iter()
             .map(|l| {
@@ -378,7 +542,7 @@ impl SourcedDiagnostic {
                 Some(d.code)
             },
             message: d.message.clone(),
-            help: d.help.clone(),
+            help,
             src,
             labels,
             related,
@@ -447,5 +611,62 @@ mod tests {
             r,
             "error[mbdc::unit-mismatch]: mass must be in kg\n --> x.mbd:2:8\n  |\n2 |   mass 1 s\n  |        ^^^ this is a time\n  = help: write `1 kg`\n"
         );
+    }
+
+    /// A one-line model long enough to put its error past column 65 535: miette's renderer
+    /// used to panic there (formatting widths are 16-bit) and both renderings echoed the
+    /// whole line.
+    fn long_line() -> (Sources, Diagnostic) {
+        let mut text = String::from("model m { ");
+        for i in 0..2000 {
+            text.push_str(&format!(
+                "body b{i} {{ mass 1 kg; inertia sphere(radius: 1 cm) }} "
+            ));
+        }
+        let at = text.len();
+        text.push_str("joint j = spherical(ground @ (0, 0, 0), bXX @ (0, 0, 0)) }\nmodel n {}\n");
+        assert!(at > 70_000);
+        let mut s = Sources::new();
+        let f = s.add("long.mbd", None, text);
+        let d = Diagnostic::error(codes::UNKNOWN_NAME, "unknown body `bXX`")
+            .primary(f, Span::new(at + 40, at + 43), "not declared")
+            .secondary(f, Span::new(10, 14), "bodies start here")
+            .help("did you mean `b0`?");
+        (s, d)
+    }
+
+    #[test]
+    fn a_label_far_along_a_long_line_renders_clipped() {
+        let (s, d) = long_line();
+        let mut out = String::new();
+        miette::GraphicalReportHandler::new_themed(miette::GraphicalTheme::unicode_nocolor())
+            .with_context_lines(1)
+            .render_report(&mut out, &d.with_sources(&s))
+            .expect("renders");
+        assert!(out.len() < 2048, "{} bytes:\n{out}", out.len());
+        assert!(out.contains("unknown body `bXX`"), "{out}");
+        assert!(out.contains("bXX @ (0, 0, 0)"), "{out}");
+        assert!(out.contains('…'), "{out}");
+        assert!(out.contains("not declared"), "{out}");
+        assert!(out.contains("long.mbd:1:"), "{out}");
+        // the real column, since miette's own is one in the clipped text
+        let (_, col) = s
+            .get(FileId(0))
+            .expect("file")
+            .line_col(d.labels[0].span.start);
+        assert!(out.contains(&format!("long.mbd:1:{col}")), "{out}");
+
+        let plain = d.render_plain(&s);
+        assert!(plain.len() < 2048, "{} bytes:\n{plain}", plain.len());
+        assert!(plain.contains(&format!("--> long.mbd:1:{col}")), "{plain}");
+        let lines: Vec<&str> = plain.lines().collect();
+        // the underline sits under `bXX` in the clipped line
+        let (shown, under) = (lines[3], lines[4]);
+        let caret = under.chars().position(|c| c == '^').expect("underline");
+        let marked: String = shown.chars().skip(caret).take(3).collect();
+        assert_eq!(marked, "bXX", "{plain}");
+        // the secondary label, far from the first, is shown on its own
+        assert!(out.contains("bodies start here"), "{out}");
+        assert!(under.ends_with("^^^ not declared"), "{plain}");
     }
 }

@@ -31,8 +31,18 @@ use crate::scene_crate;
 pub enum FailurePolicy {
     /// Stop and report.
     Stop,
-    /// Retry from the last good frame with half the step (up to 10 times).
+    /// Retry from the last good frame with half the step (up to `run_loop::MAX_HALVINGS`
+    /// times; the help text is built from the constant).
+    #[value(help = halve_step_help())]
     HalveStep,
+}
+
+/// The help of `--on-failure halve-step`, with the runtime's retry limit.
+fn halve_step_help() -> String {
+    format!(
+        "Retry from the last good frame with half the step (up to {} times)",
+        run_loop::MAX_HALVINGS
+    )
 }
 
 /// Arguments of `mbdc run`.

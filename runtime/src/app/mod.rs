@@ -76,7 +76,7 @@ pub fn run_config<S: System>(sys: &S, scene: &Scene, s: &Settings) -> Result<Run
         method,
         every: s.every.unwrap_or(scene.simulate.output.every).max(1),
         on_failure: if s.halve_step {
-            OnFailure::HalveStep(10)
+            OnFailure::HalveStep(run_loop::MAX_HALVINGS)
         } else {
             OnFailure::Stop
         },

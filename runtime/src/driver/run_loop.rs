@@ -24,6 +24,10 @@ use crate::contract::system::{ConstraintEval, Need, RowKind, System};
 use crate::driver::energy;
 use crate::integrators::{self, State, StepError};
 
+/// How many times `--on-failure halve-step` halves the step before giving up: the single
+/// source of the number for the runtime's settings, the CLI's help and docs/stability.md.
+pub const MAX_HALVINGS: u32 = 10;
+
 /// What to do when the watchdog stops a run.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum OnFailure {

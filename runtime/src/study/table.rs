@@ -21,7 +21,12 @@ pub struct Table {
     track: Track,
 }
 
-/// The header and the selected columns of a CSV file, stopping at an incomplete last line.
+/// The header and the selected columns of a CSV file.
+///
+/// Every row must have the header's number of columns; the one exception is a last line cut
+/// short (no line end after it, as a table still being written leaves it), where the data
+/// end. Any other ragged row is refused with its line number: skipping or truncating there
+/// would silently drop the rest of the reference.
 fn read_columns(path: &Path, wanted: &[String]) -> Result<Vec<Vec<f64>>, ReferenceError> {
     let err = |message: String| ReferenceError::Table {
         path: path.to_path_buf(),
@@ -47,13 +52,23 @@ fn read_columns(path: &Path, wanted: &[String]) -> Result<Vec<Vec<f64>>, Referen
         })
         .collect::<Result<_, _>>()?;
     let mut data = vec![Vec::new(); wanted.len()];
+    let ends_with_newline = ends_with_newline(path).map_err(|e| err(e.to_string()))?;
     let mut rec = csv::StringRecord::new();
-    let mut line = 1usize;
+    let mut short: Option<(u64, usize)> = None; // (line, columns) of a row cut short
     while r.read_record(&mut rec).map_err(|e| err(e.to_string()))? {
-        line += 1;
-        if rec.len() != head.len() {
-            // an incomplete last line: the data end here
-            break;
+        let line = rec.position().map_or(0, csv::Position::line);
+        if let Some((at, found)) = short {
+            // the short row was not the last line: a ragged row, not a cut-off end
+            return Err(ragged(&err, at, head.len(), found));
+        }
+        if rec.len() > head.len() || (rec.len() < head.len() && ends_with_newline) {
+            return Err(ragged(&err, line, head.len(), rec.len()));
+        }
+        if rec.len() < head.len() {
+            // possibly the incomplete last line of a table being written: the data end
+            // here if nothing follows
+            short = Some((line, rec.len()));
+            continue;
         }
         for (d, &i) in data.iter_mut().zip(&idx) {
             let field = rec.get(i).unwrap_or("").trim();
@@ -65,6 +80,31 @@ fn read_columns(path: &Path, wanted: &[String]) -> Result<Vec<Vec<f64>>, Referen
         }
     }
     Ok(data)
+}
+
+/// The error for a row whose column count differs from the header's.
+fn ragged(
+    err: &impl Fn(String) -> ReferenceError,
+    line: u64,
+    expected: usize,
+    found: usize,
+) -> ReferenceError {
+    err(format!(
+        "line {line}: expected {expected} columns (as in the header), found {found}"
+    ))
+}
+
+/// Whether the file's last byte is a line end (an empty file counts as ended).
+fn ends_with_newline(path: &Path) -> std::io::Result<bool> {
+    use std::io::{Read, Seek, SeekFrom};
+    let mut f = std::fs::File::open(path)?;
+    if f.metadata()?.len() == 0 {
+        return Ok(true);
+    }
+    f.seek(SeekFrom::End(-1))?;
+    let mut last = [0u8; 1];
+    f.read_exact(&mut last)?;
+    Ok(matches!(last[0], b'\n' | b'\r'))
 }
 
 /// The column names of a CSV file.
@@ -282,5 +322,53 @@ mod tests {
             Err(ReferenceError::NotCovered(_))
         ));
         assert!(Table::read(&p, &scene_with(&["z"])).is_err());
+    }
+
+    /// A ragged row in the middle used to end the data there silently, so the table no
+    /// longer covered the run and every error column of `mbdc sweep` came out blank.
+    #[test]
+    fn a_ragged_row_is_refused_with_its_line_and_counts() {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let p = dir.path().join("ref.csv");
+        let rows = |bad: &str, tail: &str| {
+            let mut text = String::from("t,b.x,b.y,b.z\n");
+            for i in 0..6 {
+                if i == 3 {
+                    text.push_str(bad);
+                } else {
+                    text.push_str(&format!("{},{i},0,0\n", i as f64 * 0.1));
+                }
+            }
+            text.push_str(tail);
+            text
+        };
+        let message = |text: String| {
+            std::fs::write(&p, text).expect("write");
+            match Table::read(&p, &scene_with(&["b"])) {
+                Err(ReferenceError::Table { message, .. }) => message,
+                other => panic!("expected a table error, got {other:?}"),
+            }
+        };
+        // header is line 1, row i is line i + 2: the bad row is line 5
+        let short = message(rows("0.3,3,0\n", ""));
+        assert!(
+            short.contains("line 5") && short.contains("expected 4") && short.contains("found 3"),
+            "{short}"
+        );
+        let long = message(rows("0.3,3,0,0,9\n", ""));
+        assert!(
+            long.contains("line 5") && long.contains("expected 4") && long.contains("found 5"),
+            "{long}"
+        );
+        // a short last line that ends in a line end is a ragged row too
+        let last = message(rows("0.3,3,0,0\n", "0.6,6\n"));
+        assert!(
+            last.contains("line 8") && last.contains("found 2"),
+            "{last}"
+        );
+        // but a last line cut off mid-row (no line end) is the end of a table being written
+        std::fs::write(&p, rows("0.3,3,0,0\n", "0.6,6")).expect("write");
+        let tab = Table::read(&p, &scene_with(&["b"])).expect("cut-off last line accepted");
+        assert_eq!(tab.t.len(), 6);
     }
 }

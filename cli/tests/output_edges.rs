@@ -1,0 +1,90 @@
+//! The edges of what `mbdc` prints: a diagnostic far along a very long line, a closed output
+//! pipe, and help text that must agree with the runtime and the docs.
+
+mod common;
+use common::{command, mbdc, root, s, scratch};
+
+use std::process::Stdio;
+
+/// A one-line model of 2000 bodies with an unknown body at its end, past column 70 000:
+/// miette's renderer panicked there (formatting widths are 16-bit), and the whole line would
+/// have been echoed.
+#[test]
+fn a_diagnostic_past_column_65535_is_rendered_short() {
+    let mut text = String::from("model m { ");
+    for i in 0..2000 {
+        text.push_str(&format!(
+            "body b{i} {{ mass 1 kg; inertia sphere(radius: 1 cm) }}; "
+        ));
+    }
+    assert!(text.len() > 70_000);
+    text.push_str("joint j = spherical(ground @ (0, 0, 0), bXX @ (0, 0, 0)) }\n");
+    let dir = scratch("long-line");
+    let file = dir.join("long.mbd");
+    std::fs::write(&file, text).expect("write");
+    let out = mbdc(&["check", s(&file)]);
+    let e = String::from_utf8_lossy(&out.stderr);
+    assert!(!e.contains("panicked"), "{e}");
+    assert_eq!(out.status.code(), Some(1), "{e}");
+    assert!(e.contains("bXX"), "{e}");
+    assert!(e.contains('…'), "{e}");
+    assert!(e.len() < 2048, "{} bytes of stderr:\n{e}", e.len());
+}
+
+/// `mbdc … | head -1`: a closed stdout ends the program quietly (by SIGPIPE, as Unix tools
+/// do), not with a panic from `println!`.
+#[cfg(unix)]
+#[test]
+fn a_closed_pipe_ends_quietly() {
+    use std::os::unix::process::ExitStatusExt;
+    let chain = root().join("models/chain.mbd");
+    let pendulum = root().join("models/pendulum.mbd");
+    let out_dir = scratch("closed-pipe");
+    let runs: [Vec<&str>; 3] = [
+        vec!["check", s(&chain)],
+        vec!["fmt", "--check", s(&chain)],
+        vec![
+            "run",
+            "--interp",
+            s(&pendulum),
+            "--duration",
+            "0.01",
+            "-o",
+            s(&out_dir),
+        ],
+    ];
+    for args in runs {
+        let mut child = command()
+            .args(&args)
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .expect("mbdc runs");
+        // the reader goes away before mbdc writes anything
+        drop(child.stdout.take());
+        let out = child.wait_with_output().expect("mbdc ends");
+        let e = String::from_utf8_lossy(&out.stderr);
+        assert!(!e.contains("panicked"), "{args:?}: {e}");
+        // ended by the signal, or finished with its own code (`fmt --check` reports on
+        // stderr), never the panic's 101
+        assert!(
+            out.status.signal() == Some(libc::SIGPIPE) || matches!(out.status.code(), Some(0 | 1)),
+            "{args:?}: {:?}\n{e}",
+            out.status
+        );
+    }
+}
+
+/// The help of `--on-failure halve-step` and docs/stability.md give the runtime's retry limit.
+#[test]
+fn halve_step_help_and_docs_give_the_runtime_limit() {
+    let n = mbdc_runtime::run_loop::MAX_HALVINGS;
+    let out = mbdc(&["run", "--help"]);
+    let help = String::from_utf8_lossy(&out.stdout);
+    assert!(help.contains(&format!("up to {n} times")), "{help}");
+    let doc = std::fs::read_to_string(root().join("docs/stability.md")).expect("docs");
+    assert!(
+        doc.contains(&format!("up to {n} times")),
+        "docs/stability.md"
+    );
+}
