@@ -1126,7 +1126,9 @@ fn check_scene(scene: &Scene, key: Option<(u64, u64)>, run: bool) -> Result<(), 
     };
     ACCEPTED.fetch_add(1, Ordering::Relaxed);
     let layout = System::layout(&sys);
-    prop_assert_eq!(layout.bodies(), scene.bodies.len());
+    // the scene's bodies, then every beam's nodes
+    let nodes: usize = scene.beams.iter().map(|b| b.nodes.len()).sum();
+    prop_assert_eq!(layout.bodies(), scene.bodies.len() + nodes);
     prop_assert_eq!(layout.row_joint.len(), layout.rows);
     for (i, m) in layout.mass.iter().enumerate() {
         let ok = m.m.is_finite()
