@@ -11,7 +11,7 @@
 //! `run_models.rs` (`a_failing_run_reports_and_keeps_its_frames`, with the halve-step retry).
 
 mod common;
-use common::{last_frame, mbdc, root, s, scratch, summary};
+use common::{command, last_frame, mbdc, root, s, scratch, summary};
 
 use std::path::{Path, PathBuf};
 
@@ -251,5 +251,39 @@ fn inconsistent_scenes_are_named() {
         stderr.contains(r#"the joints ["pivot", "tip", "motor"] cannot be assembled together: their velocity constraints"#),
         "{stderr}"
     );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A step above a beam's explicit limit is refused before the run, naming the beam, the
+/// element and the limit and suggesting the rotary-inertia scale; `--force` cannot override
+/// it (beams are explicit whatever the method: the runtime refuses it too, and the report
+/// says so).
+#[test]
+fn a_step_above_a_beams_limit_is_refused_with_the_beam_named() {
+    let dir = std::env::temp_dir().join(format!("mbdc-beam-refusal-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let model = root().join("models/cantilever.mbd");
+    let out = command()
+        .args(["run", "--interp", "--step", "2e-5", "-o"])
+        .arg(&dir)
+        .arg(&model)
+        .output()
+        .expect("runs");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "{stderr}");
+    assert!(
+        stderr.contains("beam 'blade', element") && stderr.contains("rotary_inertia_scale"),
+        "{stderr}"
+    );
+    assert!(!dir.join("bodies.csv").exists(), "a refused run must not start");
+    let out = command()
+        .args(["run", "--interp", "--force", "--step", "2e-5", "-o"])
+        .arg(&dir)
+        .arg(&model)
+        .output()
+        .expect("runs");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "{stderr}");
+    assert!(stderr.contains("beam 'blade', element"), "{stderr}");
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -233,3 +233,93 @@ impl BeamForces {
 pub fn total_strain_energy(states: &[ElementState]) -> f64 {
     states.iter().map(strain_energy).sum()
 }
+
+#[cfg(test)]
+mod tests {
+    use nalgebra::Vector3;
+
+    use super::*;
+    use crate::analysis::beam_model::expand;
+    use crate::contract::math::{axis_angle, qmul};
+    use crate::contract::scene::{Beam, Origin, Scene, Section, Simulate};
+    use crate::interp::Interp;
+    use crate::contract::system::System;
+
+    fn two_element_beam() -> Interp {
+        let scene = Scene {
+            name: "b".into(),
+            gravity: None,
+            bodies: vec![],
+            joints: vec![],
+            forces: vec![],
+            beams: vec![Beam {
+                name: "arm".into(),
+                nodes: vec![[0.0; 3], [0.5, 0.0, 0.0], [1.0, 0.0, 0.0]],
+                up: [0.0, 0.0, 1.0],
+                section: Section {
+                    ea: 1e4,
+                    ga2: 1e4,
+                    ga3: 1e4,
+                    ei2: 10.0,
+                    ei3: 10.0,
+                    gj: 10.0,
+                    rho_a: 1.0,
+                    rho_i: 1e-3,
+                },
+                attachments: vec![],
+                damping: 0.0,
+                rotary_inertia_scale: 1.0,
+                origin: Origin::default(),
+            }],
+            meshes: vec![],
+            contacts: vec![],
+            simulate: Simulate::default(),
+            reference: None,
+            params: vec![],
+        };
+        assert_eq!(expand(&scene).unwrap().scene.bodies.len(), 3);
+        Interp::new(&scene).unwrap()
+    }
+
+    /// An element whose end section turns by 1 rad (> π/4) relative to its start in one
+    /// evaluation is reported once, naming the beam, the element and the time.
+    #[test]
+    fn a_large_rotation_increment_is_reported_once_with_its_element() {
+        let sys = two_element_beam();
+        let start = State::initial(&sys);
+        let mut f = BeamForces::new(sys.layout(), &start).unwrap().unwrap();
+        assert_eq!(f.states().len(), 2);
+        let mut pose = start.pose.clone();
+        let q0 = pose[2].q;
+        pose[2].set_q(qmul(&axis_angle(&Vector3::z(), 1.0), &q0));
+        f.update(&pose, &start.twist).unwrap();
+        assert_eq!(f.large_rotation_steps(), 1);
+        let m = f.take_notice(0.25).expect("a notice");
+        assert!(m.contains("beam 'arm', element 1") && m.contains("t = 0.25"), "{m}");
+        assert!(m.contains("1.00 rad"), "{m}");
+        assert!(f.take_notice(0.3).is_none(), "once per run");
+        // a small increment is not
+        let mut pose2 = pose.clone();
+        pose2[2].set_q(qmul(&axis_angle(&Vector3::z(), 1.1), &q0));
+        f.update(&pose2, &start.twist).unwrap();
+        assert_eq!(f.large_rotation_steps(), 1);
+    }
+
+    /// The strain energy of a state is that of the section law: a uniform stretch ε of a bar
+    /// stores `EA ε² L/2`.
+    #[test]
+    fn strain_energy_of_a_stretch() {
+        let sys = two_element_beam();
+        let start = State::initial(&sys);
+        let mut f = BeamForces::new(sys.layout(), &start).unwrap().unwrap();
+        let mut pose = start.pose.clone();
+        let eps = 1e-4;
+        for (k, p) in pose.iter_mut().enumerate() {
+            p.r.x = 0.5 * k as f64 * (1.0 + eps);
+        }
+        f.update(&pose, &start.twist).unwrap();
+        let u = total_strain_energy(f.states());
+        let exact = 0.5 * 1e4 * eps * eps * 1.0;
+        assert!((u - exact).abs() < 1e-6 * exact, "{u} vs {exact}");
+    }
+}
