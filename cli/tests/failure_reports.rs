@@ -275,7 +275,10 @@ fn a_step_above_a_beams_limit_is_refused_with_the_beam_named() {
         stderr.contains("beam 'blade', element") && stderr.contains("rotary_inertia_scale"),
         "{stderr}"
     );
-    assert!(!dir.join("bodies.csv").exists(), "a refused run must not start");
+    assert!(
+        !dir.join("bodies.csv").exists(),
+        "a refused run must not start"
+    );
     let out = command()
         .args(["run", "--interp", "--force", "--step", "2e-5", "-o"])
         .arg(&dir)

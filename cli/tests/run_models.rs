@@ -102,6 +102,29 @@ fn the_cantilever_runs_and_writes_its_section_forces() {
         (bending - exact).abs() < 0.03 * exact,
         "root moment {bending} N·m, static {exact} N·m ({m:?})"
     );
+    // the ParaView series: an index with one data set per frame, each a polyline of 21
+    // points and 20 line cells with the section quantities
+    let pvd = std::fs::read_to_string(dir.join("beams.pvd")).expect("beams.pvd");
+    let sets = pvd.matches("<DataSet ").count();
+    let frames = text
+        .lines()
+        .skip(1)
+        .filter(|l| l.contains(",blade,0,"))
+        .count();
+    assert_eq!(sets, frames, "{pvd}");
+    let vtp = std::fs::read_to_string(dir.join("beams/beams_000000.vtp")).expect("first .vtp");
+    assert!(vtp.contains("NumberOfPoints=\"21\"") && vtp.contains("NumberOfLines=\"20\""));
+    for name in ["\"N\"", "\"M\"", "\"gamma\"", "\"kappa\""] {
+        assert!(vtp.contains(name), "{name} missing");
+    }
+    // the beam's plot: deflection, section forces and moments along it
+    let svg = std::fs::read_to_string(dir.join("beam_blade.svg")).expect("beam_blade.svg");
+    for series in ["uz", "N2 shear", "M3 bending"] {
+        assert!(
+            svg.contains(&format!("data-series=\"{series}\"")),
+            "{series} missing"
+        );
+    }
     let _ = std::fs::remove_dir_all(&dir);
 }
 

@@ -9,11 +9,13 @@
 //! - [`figure`]: the generic part, a [`figure::Figure`] of line-chart panels with linear
 //!   or logarithmic axes.
 //! - [`data`]: reading the columns of the output CSV files.
-//! - [`run`]: the run plots (energy, constraint violation, trajectories).
+//! - [`run_plots`]: the run plots (energy, constraint violation, trajectories).
+//! - [`beam_plots`]: per beam, its deflection and section forces along it.
 //!
 //! Each data series is an SVG `<polyline>` carrying `class="series"` and
 //! `data-series="<name>"`, so that a figure can be checked or restyled by machine.
 
+pub mod beam_plots;
 pub mod data;
 pub mod figure;
 pub mod run_plots;

@@ -5,6 +5,7 @@
 //! | `energy.svg` | kinetic, potential and total energy (J); relative drift `(E − E₀)/E_ref` |
 //! | `constraints.svg` | holonomic violation `max |Φ|` per joint (log scale); velocity residual per nonholonomic joint |
 //! | `trajectories.svg` | mass-centre x, y, z (m) of up to a few bodies |
+//! | `beam_<name>.svg` | per beam: deflection, section forces and moments along it at the last frame ([`super::beam_plots`]) |
 //!
 //! A plot is drawn only when its CSV file exists and has something to show; what was
 //! skipped is said in [`Drawn::notes`]. Plots are drawn from whatever frames the files
@@ -122,6 +123,9 @@ pub fn draw_run_plots(dir: &Path, opts: &RunPlotOptions) -> Result<Drawn, PlotEr
             dir.display()
         )));
     }
+    let (files, notes) = super::beam_plots::draw_beam_plots(dir, &model, &sub)?;
+    drawn.files.extend(files);
+    drawn.notes.extend(notes);
     Ok(drawn)
 }
 

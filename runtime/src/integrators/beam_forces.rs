@@ -242,8 +242,8 @@ mod tests {
     use crate::analysis::beam_model::expand;
     use crate::contract::math::{axis_angle, qmul};
     use crate::contract::scene::{Beam, Origin, Scene, Section, Simulate};
-    use crate::interp::Interp;
     use crate::contract::system::System;
+    use crate::interp::Interp;
 
     fn two_element_beam() -> Interp {
         let scene = Scene {
@@ -295,7 +295,10 @@ mod tests {
         f.update(&pose, &start.twist).unwrap();
         assert_eq!(f.large_rotation_steps(), 1);
         let m = f.take_notice(0.25).expect("a notice");
-        assert!(m.contains("beam 'arm', element 1") && m.contains("t = 0.25"), "{m}");
+        assert!(
+            m.contains("beam 'arm', element 1") && m.contains("t = 0.25"),
+            "{m}"
+        );
         assert!(m.contains("1.00 rad"), "{m}");
         assert!(f.take_notice(0.3).is_none(), "once per run");
         // a small increment is not

@@ -42,6 +42,7 @@
 //! | `bodies.csv` | `t`, then per body `<body>.x .y .z .qw .qx .qy .qz .vx .vy .vz .wx .wy .wz` (position and velocity world, quaternion body → world, angular velocity body components) |
 //! | `energy.csv` | `t, kinetic, potential, total, drift, px, py, pz, Lx, Ly, Lz` (momenta world, angular about the world origin) |
 //! | `constraints.csv` | `t`, then per joint `<joint>.violation`, `<joint>.velocity_violation` (joints with nonholonomic rows only), `<joint>.lambda0 …` (one per row) |
+//! | `beams.pvd`, `beams/beams_NNNNNN.vtp` | scenes with beams: a ParaView time series, one VTK PolyData file per frame (nodes as points, elements as lines, the section quantities as cell data; see `vtk.rs`) |
 //! | `beams.csv` | scenes with beams: one row per element and frame, `t, beam, element, s` (arc length of the element's midpoint, unstrained), section forces `N1 N2 N3` (axial, shear 2, shear 3; N), moments `M1 M2 M3` (torsion, bending 2, bending 3; N·m), strains `gamma1 gamma2 gamma3` and curvatures `kappa1 kappa2 kappa3` (1/m), all in the element's convected frame |
 //!
 //! Only the files the [`OutputSpec`] asks for are created.
@@ -54,6 +55,7 @@
 
 mod csv;
 mod json;
+mod vtk;
 
 use std::collections::BTreeMap;
 use std::fs::File;
@@ -488,6 +490,7 @@ struct Worker {
     energy: Option<CsvFile>,
     constraints: Option<CsvFile>,
     beams: Option<CsvFile>,
+    vtk: Option<vtk::BeamSeries>,
     stats: Stats,
     failed: Arc<AtomicBool>,
     error: Arc<Mutex<Option<OutputError>>>,
@@ -530,6 +533,12 @@ impl Worker {
         if let Some(c) = &mut self.beams {
             csv::beams_rows(&mut c.buf, &self.layout, f);
         }
+        if let Some(v) = &mut self.vtk {
+            if let Err(e) = v.write_frame(&self.layout, f) {
+                self.fail(e);
+                return;
+            }
+        }
         let big = self.files().any(|c| c.buf.len() >= BATCH_BYTES);
         if big {
             self.flush();
@@ -545,6 +554,11 @@ impl Worker {
             if let Err(e) = c.flush() {
                 err = Some(e);
                 break;
+            }
+        }
+        if err.is_none() {
+            if let Some(v) = &self.vtk {
+                err = v.write_index().err();
             }
         }
         if let Some(e) = err {
@@ -624,6 +638,9 @@ impl OutputWriter {
         let beams = (!layout.beams.is_empty())
             .then(|| CsvFile::create(dir.join("beams.csv"), &beams_header()))
             .transpose()?;
+        let vtk = (!layout.beams.is_empty())
+            .then(|| vtk::BeamSeries::create(dir))
+            .transpose()?;
         write_summary(dir, &Summary::started(&meta))?;
 
         let pool_size = (POOL_BYTES / Frame::bytes(layout)).clamp(2, POOL_MAX);
@@ -657,6 +674,7 @@ impl OutputWriter {
             energy,
             constraints,
             beams,
+            vtk,
             stats: Stats::default(),
             failed: failed.clone(),
             error: error.clone(),

@@ -1,0 +1,126 @@
+//! The beams as a ParaView time series: one VTK XML PolyData file per frame
+//! (`beams/beams_NNNNNN.vtp`) and a collection `beams.pvd` that indexes them by time.
+//!
+//! Each frame holds every beam's nodes as points and each element as a line cell (two
+//! points), with the element's section quantities as cell data: `N` (axial, shear 2, shear 3;
+//! N), `M` (torsion, bending 2, bending 3; N·m), `gamma` and `kappa` (strains, curvatures),
+//! in the element's convected frame, and `beam` (the beam's index). Open `beams.pvd` in
+//! ParaView; the Tube filter gives the beams a thickness. ASCII, so that the files are
+//! readable and diffable; the results-at-scale issue replaces this by the one-file series.
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+use super::{Frame, OutputError, OutputErrorKind};
+use crate::contract::system::Layout;
+
+/// The beams' `.vtp` files of a run and their `.pvd` index.
+pub(crate) struct BeamSeries {
+    /// `OUTDIR/beams/`.
+    dir: PathBuf,
+    /// `OUTDIR/beams.pvd`.
+    pvd: PathBuf,
+    /// The `<DataSet>` lines written so far.
+    entries: String,
+    /// Frames written.
+    frames: u64,
+    /// Scratch for one file.
+    buf: String,
+}
+
+impl BeamSeries {
+    /// Create `OUTDIR/beams/` and an empty `beams.pvd`.
+    pub(crate) fn create(outdir: &Path) -> Result<BeamSeries, OutputError> {
+        let dir = outdir.join("beams");
+        std::fs::create_dir_all(&dir)
+            .map_err(|e| OutputError::io(OutputErrorKind::CreateDir, &dir, e))?;
+        let s = BeamSeries {
+            dir,
+            pvd: outdir.join("beams.pvd"),
+            entries: String::new(),
+            frames: 0,
+            buf: String::new(),
+        };
+        s.write_index()?;
+        Ok(s)
+    }
+
+    /// Write the frame's `.vtp` file and add it to the index (the index itself is written
+    /// by [`BeamSeries::write_index`]).
+    pub(crate) fn write_frame(&mut self, layout: &Layout, f: &Frame) -> Result<(), OutputError> {
+        let bl = &layout.beams;
+        let name = format!("beams_{:06}.vtp", self.frames);
+        let points: usize = bl.beams.iter().map(|b| b.elements + 1).sum();
+        let cells = bl.elements.len();
+        let b = &mut self.buf;
+        b.clear();
+        b.push_str("<?xml version=\"1.0\"?>\n<VTKFile type=\"PolyData\" version=\"0.1\" byte_order=\"LittleEndian\">\n<PolyData>\n");
+        let _ = writeln!(
+            b,
+            "<Piece NumberOfPoints=\"{points}\" NumberOfVerts=\"0\" NumberOfLines=\"{cells}\" NumberOfStrips=\"0\" NumberOfPolys=\"0\">"
+        );
+        b.push_str(
+            "<Points>\n<DataArray type=\"Float64\" NumberOfComponents=\"3\" format=\"ascii\">\n",
+        );
+        for beam in &bl.beams {
+            for k in 0..=beam.elements {
+                let r = f.poses[beam.first_body + k].r;
+                let _ = writeln!(b, "{} {} {}", r.x, r.y, r.z);
+            }
+        }
+        b.push_str("</DataArray>\n</Points>\n<Lines>\n<DataArray type=\"Int64\" Name=\"connectivity\" format=\"ascii\">\n");
+        let mut first_point = 0;
+        for beam in &bl.beams {
+            for e in 0..beam.elements {
+                let _ = writeln!(b, "{} {}", first_point + e, first_point + e + 1);
+            }
+            first_point += beam.elements + 1;
+        }
+        b.push_str("</DataArray>\n<DataArray type=\"Int64\" Name=\"offsets\" format=\"ascii\">\n");
+        for c in 0..cells {
+            let _ = writeln!(b, "{}", 2 * (c + 1));
+        }
+        b.push_str("</DataArray>\n</Lines>\n<CellData Scalars=\"beam\">\n");
+        b.push_str("<DataArray type=\"Int32\" Name=\"beam\" format=\"ascii\">\n");
+        for el in &bl.elements {
+            let _ = writeln!(b, "{}", el.beam);
+        }
+        b.push_str("</DataArray>\n");
+        for (k, what) in ["N", "M", "gamma", "kappa"].iter().enumerate() {
+            let _ = writeln!(
+                b,
+                "<DataArray type=\"Float64\" Name=\"{what}\" NumberOfComponents=\"3\" format=\"ascii\">"
+            );
+            for row in &f.sections {
+                let c = 1 + 3 * k;
+                let _ = writeln!(b, "{} {} {}", row[c], row[c + 1], row[c + 2]);
+            }
+            b.push_str("</DataArray>\n");
+        }
+        b.push_str("</CellData>\n</Piece>\n</PolyData>\n</VTKFile>\n");
+        let path = self.dir.join(&name);
+        std::fs::write(&path, b.as_bytes())
+            .map_err(|e| OutputError::io(OutputErrorKind::Write, &path, e))?;
+        let _ = writeln!(
+            self.entries,
+            "    <DataSet timestep=\"{}\" part=\"0\" file=\"beams/{name}\"/>",
+            f.t
+        );
+        self.frames += 1;
+        Ok(())
+    }
+
+    /// Rewrite `beams.pvd` with the frames written so far (atomically: a temporary file,
+    /// then a rename, so a reader or a killed run never sees half an index).
+    pub(crate) fn write_index(&self) -> Result<(), OutputError> {
+        let text = format!(
+            "<?xml version=\"1.0\"?>\n<VTKFile type=\"Collection\" version=\"0.1\">\n  <Collection>\n{}  </Collection>\n</VTKFile>\n",
+            self.entries
+        );
+        let tmp = self.pvd.with_extension("pvd.tmp");
+        std::fs::write(&tmp, text.as_bytes())
+            .map_err(|e| OutputError::io(OutputErrorKind::Write, &tmp, e))?;
+        std::fs::rename(&tmp, &self.pvd)
+            .map_err(|e| OutputError::io(OutputErrorKind::Write, &self.pvd, e))
+    }
+}
