@@ -24,8 +24,8 @@ pub struct FastestRate {
 
 impl FastestRate {
     /// The fastest rate of `scene`; `None` when nothing in the scene sets a rate (a body at
-    /// rest under no forces), or when it has beams or meshes, whose element frequencies the
-    /// estimate does not cover (the scene's own step is then the best guide).
+    /// rest under no forces), or when it has beams or meshes (the series then starts just
+    /// below the beams' stability limit, or at the scene's own step for meshes).
     pub fn of(scene: &Scene) -> Option<FastestRate> {
         if !scene.beams.is_empty() || !scene.meshes.is_empty() {
             return None;
@@ -126,10 +126,26 @@ pub fn choose(
                 e.omega_max, e.source
             ),
         ),
-        (None, None) => (
-            scene.simulate.step * 2f64.powi((levels as i32 - 1) / 2),
-            "the scene's step in the middle (no stability estimate: nothing in the scene sets a rate)".to_string(),
-        ),
+        (None, None) => {
+            // beams: their element modes limit stability, not accuracy; start just below it
+            let beam = (scene.meshes.is_empty() && !scene.beams.is_empty())
+                .then(|| crate::analysis::step_limits::estimate(scene))
+                .and_then(|e| e.sources.into_iter().find(|s| s.discretization));
+            match beam {
+                Some(b) => (
+                    0.9 * 2.0 / b.omega,
+                    format!(
+                        "halving from 0.9 × the explicit limit 2/ω = {:.4e} s of the {} (a beam's element modes limit the step, not the accuracy)",
+                        2.0 / b.omega,
+                        b.what
+                    ),
+                ),
+                None => (
+                    scene.simulate.step * 2f64.powi((levels as i32 - 1) / 2),
+                    "the scene's step in the middle (no stability estimate: nothing in the scene sets a rate)".to_string(),
+                ),
+            }
+        }
     };
     let h = fit_to_duration(h, duration);
     Ok(StepSeries {
@@ -150,6 +166,57 @@ mod tests {
         assert_eq!(fit_to_duration(0.25, 1.0), 0.25);
         let s = series(0.1, 3, 2.0);
         assert_eq!(s, vec![0.1, 0.05, 0.025]);
+    }
+
+    /// A scene with a beam: the series starts at 0.9 of the beam's stability limit (its
+    /// element modes are no motion to resolve), and says so.
+    #[test]
+    fn beams_start_below_their_stability_limit() {
+        use crate::contract::scene::{Beam, Origin, Section, Simulate};
+        let section = Section {
+            ea: 1e4,
+            ga2: 1e4,
+            ga3: 1e4,
+            ei2: 10.0,
+            ei3: 10.0,
+            gj: 10.0,
+            rho_a: 1.0,
+            rho_i: 1e-2,
+        };
+        let scene = Scene {
+            name: "b".into(),
+            gravity: None,
+            bodies: vec![],
+            joints: vec![],
+            forces: vec![],
+            beams: vec![Beam {
+                name: "arm".into(),
+                nodes: (0..=10).map(|k| [0.1 * k as f64, 0.0, 0.0]).collect(),
+                up: [0.0, 0.0, 1.0],
+                section,
+                attachments: vec![],
+                damping: 0.0,
+                rotary_inertia_scale: 1.0,
+                origin: Origin::default(),
+            }],
+            meshes: vec![],
+            contacts: vec![],
+            simulate: Simulate::default(),
+            reference: None,
+            params: vec![],
+        };
+        assert!(FastestRate::of(&scene).is_none());
+        let w = crate::analysis::step_limits::beam_element_frequency(&section, 0.1, 1.0).unwrap();
+        // a duration that is a whole number of the first step
+        let h0 = 0.9 * 2.0 / w;
+        let s = choose(&[], None, 3, 1000.0 * h0, &scene, None).unwrap();
+        assert!(
+            (s.steps[0] - h0).abs() < 1e-12 * h0,
+            "{:?} vs {h0}",
+            s.steps
+        );
+        assert_eq!(s.steps.len(), 3);
+        assert!(s.note.contains("beam 'arm'"), "{}", s.note);
     }
 
     #[test]
