@@ -5,6 +5,7 @@
 //! cargo run --release -p mbdc-bench -- size               generated source size vs bodies
 //! cargo run --release -p mbdc-bench -- startup [MBDC]     `mbdc run` to the first step, cold and warm
 //! cargo run --release -p mbdc-bench -- profile [STEPS]    the generated double pendulum alone (for perf)
+//! cargo run --release -p mbdc-bench -- beams [ROUNDS]      beams: cost per element-step against a rigid body's step and the core's peak
 //! ```
 //!
 //! Timings are interleaved rounds (every candidate once per round, in turn) and the best of
@@ -46,6 +47,7 @@ fn main() {
     match args.first().map(String::as_str) {
         Some("steps") => steps(args.get(1).and_then(|s| s.parse().ok()).unwrap_or(7)),
         Some("size") => size(),
+        Some("beams") => beams(args.get(1).and_then(|s| s.parse().ok()).unwrap_or(5)),
         Some("profile") => profile(args.get(1).and_then(|s| s.parse().ok()).unwrap_or(200_000)),
         Some("startup") => startup(
             &args
@@ -54,7 +56,9 @@ fn main() {
                 .unwrap_or_else(|| root().join("target/release/mbdc")),
         ),
         _ => {
-            eprintln!("usage: mbdc-bench steps [ROUNDS] | size | startup [MBDC] | profile [STEPS]");
+            eprintln!(
+                "usage: mbdc-bench steps [ROUNDS] | size | startup [MBDC] | profile [STEPS] | beams [ROUNDS]"
+            );
             std::process::exit(2);
         }
     }
@@ -409,4 +413,152 @@ fn startup(mbdc: &Path) {
         println!("| {label} | {cold:.2} s | {warm:.2} s | {warm_param:.2} s | {interp:.2} s |");
     }
     let _ = std::fs::remove_dir_all(&tmp);
+}
+
+// ---------------------------------------------------------------------------------------
+// Beams
+
+/// A 1000-element beam clamped at one end (the cantilever's steel section, rotary inertia
+/// ×16), and 1000 free rigid bodies, in the language.
+fn beam_scenes() -> (Scene, Scene) {
+    let beam = r#"
+model beam1000 {
+  material steel { E 210 GPa; nu 0.3; rho 7850 kg/m^3 }
+  gravity (0, 0, -9.81) m/s^2
+  beam blade {
+    from (0, 0, 0) m
+    to (50, 0, 0) m
+    elements 1000
+    up (0, 0, 1)
+    material steel
+    shape rect(width: 2 cm, height: 1 cm)
+    rotary_inertia_scale 16
+    clamp start
+  }
+  simulate { duration 1 s; step 4 us }
+}
+"#;
+    let free = r#"
+model free1000 {
+  gravity (0, 0, -9.81) m/s^2
+  for i in 0..1000 {
+    body b[i] { mass 1 kg; inertia diag(1, 2, 3) kg*m^2; position (i * 1 m, 0, 0); angular_velocity (0.1, 0.2, 0.3) rad/s }
+  }
+  simulate { duration 1 s; step 1 ms }
+}
+"#;
+    let load = |text: &str| {
+        let l = mbdc_compiler::load_str("bench.mbd", text, &[]);
+        let msg = l.render_plain();
+        l.scene.unwrap_or_else(|| panic!("{msg}"))
+    };
+    (load(beam), load(free))
+}
+
+/// Seconds per call of `f(n)` (best of `rounds`).
+fn best(rounds: usize, n: usize, mut f: impl FnMut(usize) -> f64) -> f64 {
+    (0..rounds)
+        .map(|_| f(n) / n as f64)
+        .fold(f64::INFINITY, f64::min)
+}
+
+/// The core's floating-point rate on multiply–add code like the kernel's: 16 independent
+/// multiply–add chains (2 flops each; enough to hide the latency), 64 updates between
+/// barriers. Built for the default target (SSE2, no FMA), so the compiler may pair chains in
+/// 2-wide registers: an upper bound on what scalar code reaches. Flops per second.
+fn scalar_peak(n: usize) -> f64 {
+    let mut a = black_box([
+        1.0f64, 1.1, 1.2, 1.3, 1.4, 1.5, 1.6, 1.7, 1.8, 1.9, 2.0, 2.1, 2.2, 2.3, 2.4, 2.5,
+    ]);
+    let (x, y) = (black_box(0.999_999_9), black_box(1e-9));
+    let t0 = Instant::now();
+    for _ in 0..n / 64 {
+        for _ in 0..64 {
+            for v in a.iter_mut() {
+                *v = *v * x + y;
+            }
+        }
+        a = black_box(a);
+    }
+    let dt = t0.elapsed().as_secs_f64();
+    black_box(a);
+    32.0 * (n / 64 * 64) as f64 / dt
+}
+
+fn beams(rounds: usize) {
+    use mbdc_runtime::beam_element::ElementState;
+    use mbdc_runtime::integrators::beam_forces::BeamForces;
+    let (beam, free) = beam_scenes();
+    let bi = Interp::new(&beam).expect("beam");
+    let fi = Interp::new(&free).expect("free bodies");
+    let (hb, hf) = (beam.simulate.step, free.simulate.step);
+    let elements = bi.layout().beams.elements.len();
+    let start = State::initial(&bi);
+    let mut forces = BeamForces::new(bi.layout(), &start)
+        .expect("elements")
+        .expect("a beam");
+    // a bent configuration, so that the kernel does real increments
+    let mut pose = start.pose.clone();
+    for (k, p) in pose.iter_mut().enumerate() {
+        p.r.z += 1e-4 * (k as f64 * 0.01).sin();
+    }
+    let twist = start.twist.clone();
+    let mut kernel = 0.0;
+    let mut beam_step = 0.0;
+    let mut body_step = 0.0;
+    let mut peak = 0.0f64;
+    for _ in 0..rounds {
+        kernel = best(1, 200, |n| {
+            let t0 = Instant::now();
+            for k in 0..n {
+                let p = if k % 2 == 0 { &pose } else { &start.pose };
+                forces.update(black_box(p), &twist).expect("kernel");
+            }
+            t0.elapsed().as_secs_f64()
+        }) / elements as f64;
+        beam_step = run_steps(&bi, hb, 100).0 / 100.0 / (elements + 1) as f64;
+        body_step = run_steps(&fi, hf, 100).0 / 100.0 / 1000.0;
+        peak = peak.max(scalar_peak(20_000_000));
+    }
+    // floating-point operations of one `internal_force`, counted from the source (additions
+    // and multiplications; a square root or division counts as one): frame 33, section
+    // rotations 2×45, deformation increments 2×45 + Cayley 2×12, half rotation 21 + 36,
+    // T½ 45, chord increment 51, shear and curvature 15, resultant update 24, nodal forces
+    // 15 + 9 + 2×(15 + 6), total curvature 52
+    let flops = 33 + 90 + 90 + 24 + 57 + 45 + 51 + 15 + 24 + 66 + 52;
+    println!("# Beams: cost per element-step (best of {rounds} rounds)\n");
+    println!("| quantity | value |\n|---|---|");
+    println!(
+        "| element kernel (`internal_force` + bookkeeping), per element | {:.1} ns |",
+        kernel * 1e9
+    );
+    println!(
+        "| full staggered step of the 1000-element beam, per node | {:.1} ns |",
+        beam_step * 1e9
+    );
+    println!(
+        "| staggered step of 1000 free rigid bodies, per body | {:.1} ns |",
+        body_step * 1e9
+    );
+    println!(
+        "| beam node step / rigid body step | {:.2} |",
+        beam_step / body_step
+    );
+    println!("| flops per element evaluation (counted) | {flops} |");
+    println!(
+        "| multiply–add rate of this core (16 independent chains, SSE2) | {:.2} Gflop/s |",
+        peak / 1e9
+    );
+    println!(
+        "| element kernel rate, fraction of that rate | {:.2} Gflop/s, {:.0} % |",
+        flops as f64 / kernel / 1e9,
+        100.0 * flops as f64 / kernel / peak
+    );
+    println!(
+        "| memory per element (element state + node pose, twist, mass; + per-step buffers) | {} B state + {} B node |",
+        std::mem::size_of::<ElementState>(),
+        std::mem::size_of::<mbdc_runtime::system::Pose>()
+            + std::mem::size_of::<mbdc_runtime::system::Twist>()
+            + std::mem::size_of::<mbdc_runtime::system::MassProps>()
+    );
 }
