@@ -554,6 +554,45 @@ fn beams(rounds: usize) {
         flops as f64 / kernel / 1e9,
         100.0 * flops as f64 / kernel / peak
     );
+    // 8 beams of 1000 elements: the element loop on one thread and on two
+    let eight = {
+        let mut sc = beam.clone();
+        let b0 = sc.beams[0].clone();
+        sc.beams = (0..8)
+            .map(|k| {
+                let mut b = b0.clone();
+                b.name = format!("blade{k}");
+                for n in b.nodes.iter_mut() {
+                    n[1] = k as f64;
+                }
+                for a in b.attachments.iter_mut() {
+                    a.to.point[1] = k as f64;
+                }
+                b
+            })
+            .collect();
+        sc
+    };
+    let ei = Interp::new(&eight).expect("eight beams");
+    let (mut one_thread, mut two_threads) = (f64::INFINITY, f64::INFINITY);
+    for _ in 0..rounds {
+        for threads in [1, 2] {
+            let t = mbdc_runtime::integrators::natural::with_threads(threads, || {
+                run_steps(&ei, hb, 50).0 / 50.0
+            });
+            if threads == 1 {
+                one_thread = one_thread.min(t);
+            } else {
+                two_threads = two_threads.min(t);
+            }
+        }
+    }
+    println!(
+        "| 8 beams × 1000 elements, staggered step: 1 thread / 2 threads | {:.2} ms / {:.2} ms, speed-up {:.2} |",
+        one_thread * 1e3,
+        two_threads * 1e3,
+        one_thread / two_threads
+    );
     println!(
         "| memory per element (element state + node pose, twist, mass; + per-step buffers) | {} B state + {} B node |",
         std::mem::size_of::<ElementState>(),

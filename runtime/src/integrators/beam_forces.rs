@@ -45,8 +45,6 @@ pub struct BeamForces {
     states: Vec<ElementState>,
     /// Per element: the forces on its two nodes (elastic + damping).
     wrench: Vec<[Wrench; 2]>,
-    /// Scratch for one evaluation.
-    out: ElementForce,
     /// Steps with an element above [`LARGE_ROTATION`].
     large_rotation_steps: u64,
     /// The first such event not yet reported: (element, relative rotation).
@@ -106,7 +104,6 @@ impl BeamForces {
             elements: bl.elements.clone(),
             states,
             wrench: vec![[Wrench::default(); 2]; bl.elements.len()],
-            out: ElementForce::default(),
             large_rotation_steps: 0,
             pending_notice: None,
             reported: false,
@@ -123,39 +120,82 @@ impl BeamForces {
             let s = section_rotations(&nodes, &t);
             let st = &f.states[e];
             f.wrench[e] = nodal_wrenches(&t, l, &s, &st.n, &st.m);
-            f.add_damping(e, &nodes).map_err(|err| fail(e, err))?;
+            let beam = f.elements[e].beam;
+            add_damping(&f.sections[beam], f.damping[beam], &nodes, &mut f.wrench[e])
+                .map_err(|err| fail(e, err))?;
         }
         Ok(Some(f))
     }
 
     /// Evaluate every element at the new positions `pose` (advancing its state by the
     /// increments since its last evaluation) with damping from the velocities `twist`.
-    /// Does not allocate.
+    /// Elements are independent: from [`PAR_MIN_ELEMENTS`] on they are evaluated in
+    /// parallel (rayon, chunks of at least 256). Does not allocate on the serial path.
     pub fn update(&mut self, pose: &[Pose], twist: &[Twist]) -> Result<(), StepError> {
-        let mut largest: (f64, usize) = (0.0, 0);
-        for e in 0..self.elements.len() {
-            let el = self.elements[e];
-            let nodes = [
-                node(pose, twist, el.nodes[0]),
-                node(pose, twist, el.nodes[1]),
-            ];
-            let section = self.sections[el.beam];
-            if let Err(err) = internal_force(&section, &mut self.states[e], &nodes, &mut self.out) {
-                return Err(self.error(e, err.to_string()));
+        let (sections, damping) = (&self.sections, &self.damping);
+        // (largest relative turn, its element, first failing element and why)
+        type Acc = (f64, usize, Option<(usize, String)>);
+        let one =
+            |e: usize, el: &BeamElementLayout, st: &mut ElementState, w: &mut [Wrench; 2]| -> Acc {
+                let nodes = [
+                    node(pose, twist, el.nodes[0]),
+                    node(pose, twist, el.nodes[1]),
+                ];
+                let mut out = ElementForce::default();
+                if let Err(err) = internal_force(&sections[el.beam], st, &nodes, &mut out) {
+                    return (0.0, e, Some((e, err.to_string())));
+                }
+                *w = out.wrench;
+                if let Err(m) = add_damping(&sections[el.beam], damping[el.beam], &nodes, w) {
+                    return (0.0, e, Some((e, m)));
+                }
+                (out.d_kappa.norm() * out.length, e, None)
+            };
+        let merge = |a: Acc, b: Acc| -> Acc {
+            let err = match (a.2, b.2) {
+                (Some(x), Some(y)) => Some(if x.0 <= y.0 { x } else { y }),
+                (x, y) => x.or(y),
+            };
+            if a.0 >= b.0 {
+                (a.0, a.1, err)
+            } else {
+                (b.0, b.1, err)
             }
-            let turn = self.out.d_kappa.norm() * self.out.length;
-            if turn > largest.0 {
-                largest = (turn, e);
+        };
+        let acc = if self.elements.len() >= PAR_MIN_ELEMENTS {
+            use rayon::prelude::*;
+            (
+                self.elements.par_iter(),
+                self.states.par_iter_mut(),
+                self.wrench.par_iter_mut(),
+            )
+                .into_par_iter()
+                .enumerate()
+                .with_min_len(256)
+                .map(|(e, (el, st, w))| one(e, el, st, w))
+                .reduce(|| (0.0, 0, None), merge)
+        } else {
+            let mut acc: Acc = (0.0, 0, None);
+            for (e, (el, (st, w))) in self
+                .elements
+                .iter()
+                .zip(self.states.iter_mut().zip(self.wrench.iter_mut()))
+                .enumerate()
+            {
+                acc = merge(acc, one(e, el, st, w));
+                if acc.2.is_some() {
+                    break;
+                }
             }
-            self.wrench[e] = self.out.wrench;
-            if let Err(m) = self.add_damping(e, &nodes) {
-                return Err(self.error(e, m));
-            }
+            acc
+        };
+        if let Some((e, m)) = acc.2 {
+            return Err(self.error(e, m));
         }
-        if largest.0 > LARGE_ROTATION {
+        if acc.0 > LARGE_ROTATION {
             self.large_rotation_steps += 1;
             if !self.reported && self.pending_notice.is_none() {
-                self.pending_notice = Some((largest.1, largest.0));
+                self.pending_notice = Some((acc.1, acc.0));
             }
         }
         Ok(())
@@ -169,28 +209,6 @@ impl BeamForces {
             element: e - first,
             message,
         }
-    }
-
-    /// Add element `e`'s damping forces (if its beam is damped) to its wrenches.
-    fn add_damping(&mut self, e: usize, nodes: &[BeamNode; 2]) -> Result<(), String> {
-        let b = self.elements[e].beam;
-        let beta = self.damping[b];
-        if beta == 0.0 {
-            return Ok(());
-        }
-        let sec = &self.sections[b];
-        let (gd, kd) = strain_rate(nodes).map_err(|e| e.to_string())?;
-        let n = sec.c_gamma().component_mul(&gd) * beta;
-        let m = sec.c_kappa().component_mul(&kd) * beta;
-        let (t, l) = convected_frame(&nodes[0].pose.r, &nodes[1].pose.r, &nodes[0].pose.c)
-            .map_err(|e| e.to_string())?;
-        let s = section_rotations(nodes, &t);
-        let w = nodal_wrenches(&t, l, &s, &n, &m);
-        for i in 0..2 {
-            self.wrench[e][i].f += w[i].f;
-            self.wrench[e][i].t += w[i].t;
-        }
-        Ok(())
     }
 
     /// Add the beams' nodal forces of the last evaluation to `out` (one entry per body).
@@ -227,6 +245,33 @@ impl BeamForces {
             2.0 * (turn / 2.0).atan(),
         ))
     }
+}
+
+/// Elements from which [`BeamForces::update`] evaluates them in parallel.
+pub const PAR_MIN_ELEMENTS: usize = 512;
+
+/// Add an element's stiffness-proportional damping forces (if `beta` > 0) to `w`.
+fn add_damping(
+    sec: &BeamSection,
+    beta: f64,
+    nodes: &[BeamNode; 2],
+    w: &mut [Wrench; 2],
+) -> Result<(), String> {
+    if beta == 0.0 {
+        return Ok(());
+    }
+    let (gd, kd) = strain_rate(nodes).map_err(|e| e.to_string())?;
+    let n = sec.c_gamma().component_mul(&gd) * beta;
+    let m = sec.c_kappa().component_mul(&kd) * beta;
+    let (t, l) = convected_frame(&nodes[0].pose.r, &nodes[1].pose.r, &nodes[0].pose.c)
+        .map_err(|e| e.to_string())?;
+    let s = section_rotations(nodes, &t);
+    let d = nodal_wrenches(&t, l, &s, &n, &m);
+    for i in 0..2 {
+        w[i].f += d[i].f;
+        w[i].t += d[i].t;
+    }
+    Ok(())
 }
 
 /// The strain energy of element states (J), summed.
