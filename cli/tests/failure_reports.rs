@@ -121,8 +121,8 @@ fn pcg_does_not_converge() {
     let text = std::fs::read_to_string(root().join("models/bench/ladder.mbd"))
         .unwrap()
         .replace(
-            "method natural_partitioning\n",
-            "method natural_partitioning { max_iterations 1 }\n",
+            "method natural_partitioning",
+            "method natural_partitioning { max_iterations 1 }",
         );
     assert!(text.contains("max_iterations 1"));
     let model = write(&dir, "ladder.mbd", &text);

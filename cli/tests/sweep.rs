@@ -307,6 +307,46 @@ fn bad_arguments_are_reported() {
     let e = String::from_utf8_lossy(&o.stderr);
     assert!(e.contains("steps must be positive"), "{e}");
     assert!(!e.contains("panicked"), "{e}");
+    // `--levels 100` asked for a finest step 2^99 times smaller than the first, and ran
+    let o = Command::new(env!("CARGO_BIN_EXE_mbdc"))
+        .args(["sweep"])
+        .arg(root().join("models/pendulum.mbd"))
+        .args(["--interp", "--levels", "100", "-q", "-o"])
+        .arg(&dir)
+        .output()
+        .expect("runs");
+    assert!(!o.status.success());
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        e.contains("--levels must be between 1 and 20 (each level halves the step")
+            && e.contains("got 100"),
+        "{e}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// `reference { table "/dev/zero" }` read zeros until the process aborted for lack of
+/// memory: a special file is refused by its kind, with the file named.
+#[cfg(unix)]
+#[test]
+fn a_reference_table_of_a_special_file_is_refused() {
+    let dir = scratch("dev-zero");
+    let model = "model m {\n  body ball { mass 1 kg; inertia sphere(radius: 10 cm) }\n  gravity (0, 0, -9.81) m/s^2\n  reference { table \"/dev/zero\" }\n  simulate { duration 0.1 s; step 1 ms }\n}\n";
+    let file = dir.join("zero.mbd");
+    std::fs::write(&file, model).expect("write");
+    let o = Command::new(env!("CARGO_BIN_EXE_mbdc"))
+        .args(["sweep"])
+        .arg(&file)
+        .args(["--interp", "--levels", "1", "--min-time", "0", "-q", "-o"])
+        .arg(dir.join("out"))
+        .output()
+        .expect("runs");
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success(), "{e}");
+    assert!(
+        e.contains("/dev/zero: a character device is not a regular file"),
+        "{e}"
+    );
     let _ = std::fs::remove_dir_all(&dir);
 }
 

@@ -21,6 +21,10 @@ pub enum BindKind {
     ComponentParam,
     /// A variable bound by the compiler (`x` in curves and node predicates).
     Builtin,
+    /// A `const` or `param` whose value could not be computed: its error is reported, and
+    /// its uses are errors that are not reported again (as rustc does), so that one bad
+    /// value does not bury the real error under an "unknown name" at every use.
+    Failed,
 }
 
 /// One binding.

@@ -159,11 +159,11 @@ impl Loaded {
 pub fn load_file(path: impl AsRef<Path>, overrides: &[Override]) -> Loaded {
     let path = path.as_ref();
     let name = path.to_string_lossy().replace('\\', "/");
-    match std::fs::read_to_string(path) {
+    match load::read_input(path, load::MAX_SOURCE_BYTES) {
         Ok(text) => {
             let canonical = path.canonicalize().ok();
             load_with(&name, &text, canonical, overrides, &|p: &Path| {
-                std::fs::read_to_string(p)
+                load::read_input(p, load::MAX_SOURCE_BYTES)
             })
         }
         Err(e) => {
@@ -188,7 +188,7 @@ pub fn load_file(path: impl AsRef<Path>, overrides: &[Override]) -> Loaded {
 /// directory.
 pub fn load_str(name: &str, text: &str, overrides: &[Override]) -> Loaded {
     load_with(name, text, None, overrides, &|p: &Path| {
-        std::fs::read_to_string(p)
+        load::read_input(p, load::MAX_SOURCE_BYTES)
     })
 }
 

@@ -16,8 +16,82 @@ use crate::source::{FileId, Sources};
 /// Deepest chain of imports accepted.
 pub const MAX_IMPORT_DEPTH: usize = 32;
 
+/// Largest `.mbd` file read (the main file or an import): 64 MiB.
+pub const MAX_SOURCE_BYTES: u64 = 64 << 20;
+
+/// Largest `.msh` mesh file read: 512 MiB.
+pub const MAX_MESH_BYTES: u64 = 512 << 20;
+
 /// Reads a file's text (the file system, or a virtual one in tests).
 pub type Reader<'r> = &'r dyn Fn(&Path) -> std::io::Result<String>;
+
+/// Reads an input file's text, refusing what is not a regular file and what is larger than
+/// `limit` bytes.
+///
+/// A character device (`/dev/zero`), a FIFO or a socket would be read forever, or block
+/// until a writer comes; a directory has no text. They are refused by their kind before the
+/// file is opened. The size is checked before reading and again while reading (a file that
+/// grows, or a special file that reports size 0, stops at `limit + 1` bytes).
+///
+/// # Errors
+/// The file's own error (`NotFound`, …), or `InvalidInput` with a message saying what the
+/// file is or how large it is against the limit; callers print it after the file's name.
+pub fn read_input(path: &Path, limit: u64) -> std::io::Result<String> {
+    use std::io::Read;
+    let meta = std::fs::metadata(path)?;
+    if !meta.is_file() {
+        return Err(invalid(format!(
+            "{} is not a regular file",
+            file_kind(&meta.file_type())
+        )));
+    }
+    let too_large = |size: u64| {
+        invalid(format!(
+            "the file has {size} bytes, more than the {} MiB mbdc reads",
+            limit >> 20
+        ))
+    };
+    if meta.len() > limit {
+        return Err(too_large(meta.len()));
+    }
+    let mut bytes = Vec::new();
+    std::fs::File::open(path)?
+        .take(limit + 1)
+        .read_to_end(&mut bytes)?;
+    if bytes.len() as u64 > limit {
+        return Err(too_large(bytes.len() as u64));
+    }
+    String::from_utf8(bytes).map_err(|_| invalid("the file is not UTF-8 text".into()))
+}
+
+fn invalid(message: String) -> std::io::Error {
+    std::io::Error::new(std::io::ErrorKind::InvalidInput, message)
+}
+
+/// What a file that is not a regular file is, for messages.
+fn file_kind(t: &std::fs::FileType) -> &'static str {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::FileTypeExt;
+        if t.is_char_device() {
+            return "a character device";
+        }
+        if t.is_block_device() {
+            return "a block device";
+        }
+        if t.is_fifo() {
+            return "a FIFO (named pipe)";
+        }
+        if t.is_socket() {
+            return "a socket";
+        }
+    }
+    if t.is_dir() {
+        "a directory"
+    } else {
+        "a special file"
+    }
+}
 
 /// One import statement after resolution.
 #[derive(Clone, Debug)]

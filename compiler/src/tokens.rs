@@ -243,9 +243,9 @@ pub fn include_model_macro(input: TokenStream) -> TokenStream {
         None => PathBuf::from(&rel),
     };
     // Read the file here so that messages name it as written in the macro.
-    let loaded = match std::fs::read_to_string(&path) {
+    let loaded = match crate::load::read_input(&path, crate::load::MAX_SOURCE_BYTES) {
         Ok(text) => crate::load_with(&rel, &text, path.canonicalize().ok(), &[], &|p: &Path| {
-            std::fs::read_to_string(p)
+            crate::load::read_input(p, crate::load::MAX_SOURCE_BYTES)
         }),
         Err(e) => {
             return syn::Error::new(

@@ -48,6 +48,10 @@ pub struct Comment {
     pub text: String,
     /// Where it is.
     pub span: Span,
+    /// Whether a blank line separates it from what comes before it in its block (layout,
+    /// like the span: kept by [`format`](crate::format()), reset by
+    /// [`strip_spans`](crate::strip_spans)).
+    pub blank_before: bool,
 }
 
 /// A parsed file: a sequence of items.
@@ -81,6 +85,9 @@ pub struct Item {
     pub kind: ItemKind,
     /// Span of the item (excluding comments).
     pub span: Span,
+    /// Whether a blank line separates the item from what comes before it (its last leading
+    /// comment, or the item or comment above); layout, like `blank_before` of [`Comment`].
+    pub blank_before: bool,
 }
 
 /// The kinds of items.

@@ -13,14 +13,15 @@ pub const MAX_WIDTH: usize = 100;
 /// * Two spaces of indentation per block level; one item per line; `{` on the line of its
 ///   item, `}` on its own line; an empty block without comments is `{}`.
 /// * A block is printed on one line, `{ a 1; b 2 }`, when all its items are properties, it
-///   has no comments at all, and the whole line fits in [`MAX_WIDTH`] columns (the item's
-///   own trailing comment is not counted).
-/// * At the top level of a file, a blank line separates two items when either of them has a
-///   block; there are no blank lines inside blocks.
+///   has no comments and no blank lines between its items, and the whole line fits in
+///   [`MAX_WIDTH`] columns (the item's own trailing comment is not counted).
+/// * Blank lines of the source are kept where they separate two items, comments or an item
+///   and a comment, a run of them as one; none is printed at the start or end of a block or
+///   file. At the top level of a file, a blank line also separates two items when either of
+///   them has a block.
 /// * Leading comments are printed on their own lines above their item, a trailing comment
 ///   after its item, separated by one space; comments are printed verbatim. (The parser
 ///   has already moved comments written inside an item's expressions above the item.)
-///   Blank lines of the source are not kept.
 /// * `else if` is printed as such when the `else` block holds nothing but one `if` item
 ///   without comments; otherwise as `else { ... }`. An `if` chain is printed on one line
 ///   only if all its blocks can be and the whole chain fits in [`MAX_WIDTH`]; otherwise
@@ -44,11 +45,7 @@ pub const MAX_WIDTH: usize = 100;
 /// ```
 pub fn format(file: &File) -> String {
     let mut f = Fmt { out: String::new() };
-    f.items(&file.items, 0, true);
-    for c in &file.trailing_comments {
-        f.out.push_str(&c.text);
-        f.out.push('\n');
-    }
+    f.items(&file.items, &file.trailing_comments, 0, true);
     f.out
 }
 
@@ -89,22 +86,44 @@ impl Fmt {
         self.out[line_start..].chars().count()
     }
 
-    fn items(&mut self, items: &[Item], level: usize, top: bool) {
+    /// Prints the items of a block (or of the file, `top`) and then its trailing comments.
+    /// A blank line of the source before an item or comment is kept (one for a run), except
+    /// at the start of the block; at the top level a blank line also separates two items
+    /// when either has a block.
+    fn items(&mut self, items: &[Item], trailing: &[Comment], level: usize, top: bool) {
+        let mut first = true;
         for (i, item) in items.iter().enumerate() {
-            if top && i > 0 && (has_block(item) || has_block(&items[i - 1])) {
-                self.out.push('\n');
-            }
+            let mut blank = top && i > 0 && (has_block(item) || has_block(&items[i - 1]));
             for c in &item.comments {
+                self.blank_line(first, blank || c.blank_before);
+                blank = false;
+                first = false;
                 self.indent(level);
                 self.out.push_str(&c.text);
                 self.out.push('\n');
             }
+            self.blank_line(first, blank || item.blank_before);
+            first = false;
             self.indent(level);
             self.item(item, level);
             if let Some(c) = &item.trailing_comment {
                 self.out.push(' ');
                 self.out.push_str(&c.text);
             }
+            self.out.push('\n');
+        }
+        for c in trailing {
+            self.blank_line(first, c.blank_before);
+            first = false;
+            self.indent(level);
+            self.out.push_str(&c.text);
+            self.out.push('\n');
+        }
+    }
+
+    /// A blank line when `wanted`, unless nothing of the block has been printed yet.
+    fn blank_line(&mut self, first: bool, wanted: bool) {
+        if wanted && !first {
             self.out.push('\n');
         }
     }
@@ -244,12 +263,7 @@ impl Fmt {
             }
         }
         self.out.push_str("{\n");
-        self.items(&block.items, level + 1, false);
-        for c in &block.trailing_comments {
-            self.indent(level + 1);
-            self.out.push_str(&c.text);
-            self.out.push('\n');
-        }
+        self.items(&block.items, &block.trailing_comments, level + 1, false);
         self.indent(level);
         self.out.push('}');
     }
@@ -306,6 +320,10 @@ fn inline_block(block: &Block) -> Option<String> {
     let mut s = String::from("{ ");
     for (i, item) in block.items.iter().enumerate() {
         if !item.comments.is_empty() || item.trailing_comment.is_some() {
+            return None;
+        }
+        if i > 0 && item.blank_before {
+            // the author grouped the properties: keep the lines
             return None;
         }
         if !matches!(item.kind, ItemKind::Prop { .. }) {
@@ -463,15 +481,7 @@ fn write_expr(out: &mut String, e: &Expr, min: u8) {
             }
         },
         ExprKind::Binary { op, lhs, rhs } => {
-            let (lmin, rmin) = match op {
-                BinOp::At => (2, 2),
-                BinOp::Or => (2, 3),
-                BinOp::And => (3, 4),
-                BinOp::Eq | BinOp::Ne | BinOp::Lt | BinOp::Le | BinOp::Gt | BinOp::Ge => (6, 6),
-                BinOp::Add | BinOp::Sub => (6, 7),
-                BinOp::Mul | BinOp::Div | BinOp::Rem => (7, 8),
-                BinOp::Pow => (10, 8),
-            };
+            let (lmin, rmin) = operand_mins(*op);
             if *op == BinOp::Pow {
                 // Postfix level on the left; only some atoms may carry postfix operators,
                 // but all atoms may stand left of `^`.
@@ -479,13 +489,46 @@ fn write_expr(out: &mut String, e: &Expr, min: u8) {
                 out.push_str(if ends_with_unit(lhs) { " ^ " } else { "^" });
                 write_expr(out, rhs, rmin);
             } else {
-                write_expr(out, lhs, lmin);
-                out.push(' ');
-                out.push_str(op.as_str());
-                out.push(' ');
-                write_expr(out, rhs, rmin);
+                // A chain `a + b - c …` is a left-deep tree as long as the chain: walk its
+                // left operands in a loop (the parser bounds only the right ones' depth).
+                let mut spine = vec![(*op, &**rhs)];
+                let mut left = &**lhs;
+                let mut min = lmin;
+                while let ExprKind::Binary {
+                    op: o,
+                    lhs: l,
+                    rhs: r,
+                } = &left.kind
+                {
+                    if *o == BinOp::Pow || prec(left) < min {
+                        break;
+                    }
+                    spine.push((*o, &**r));
+                    min = operand_mins(*o).0;
+                    left = l;
+                }
+                write_expr(out, left, min);
+                for (o, r) in spine.into_iter().rev() {
+                    out.push(' ');
+                    out.push_str(o.as_str());
+                    out.push(' ');
+                    write_expr(out, r, operand_mins(o).1);
+                }
             }
         }
+    }
+}
+
+/// The binding power each operand of `op` needs to be printed without parentheses.
+fn operand_mins(op: BinOp) -> (u8, u8) {
+    match op {
+        BinOp::At => (2, 2),
+        BinOp::Or => (2, 3),
+        BinOp::And => (3, 4),
+        BinOp::Eq | BinOp::Ne | BinOp::Lt | BinOp::Le | BinOp::Gt | BinOp::Ge => (6, 6),
+        BinOp::Add | BinOp::Sub => (6, 7),
+        BinOp::Mul | BinOp::Div | BinOp::Rem => (7, 8),
+        BinOp::Pow => (10, 8),
     }
 }
 

@@ -96,6 +96,7 @@ pub(crate) fn prelex(src: &str, as_expression: bool) -> Result<Lexed, ParseError
                 comments.push(Comment {
                     text: src[i..text_end].to_string(),
                     span: Span::new(i, text_end),
+                    blank_before: false,
                 });
                 out[i..end].fill(b' ');
                 i = end;
@@ -110,6 +111,7 @@ pub(crate) fn prelex(src: &str, as_expression: bool) -> Result<Lexed, ParseError
                 comments.push(Comment {
                     text: src[i..end].to_string(),
                     span: Span::new(i, end),
+                    blank_before: false,
                 });
                 for j in i..end {
                     if bytes[j] == b'\n' {

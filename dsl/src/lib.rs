@@ -38,8 +38,13 @@
 //! ## Limits
 //!
 //! Inputs longer than [`MAX_INPUT_LEN`] bytes are refused, and so is nesting deeper than
-//! [`MAX_NESTING`] (brackets, blocks, or the height of an expression tree), so that no input
-//! can overflow the stack of the parser, the formatter or a consumer walking the tree.
+//! [`MAX_NESTING`] (brackets, blocks, or the height of an expression tree) and an expression
+//! of more than [`MAX_OPERATORS`] binary operators, so that no input can overflow the stack
+//! of the parser, the formatter or a consumer walking the tree. A chain of binary operators
+//! written without brackets (`a + b + c + …`, a left-deep tree) counts as one level of
+//! nesting however long it is: a consumer must walk the left operands of such a chain in a
+//! loop, recursing only into the right ones (as the formatter and the compiler's evaluator
+//! do); `^` is right-associative and counts per operator.
 
 #![warn(missing_docs)]
 
@@ -59,8 +64,14 @@ pub use strip::{strip_expr_spans, strip_spans};
 pub const MAX_INPUT_LEN: usize = 16 << 20;
 
 /// The deepest accepted nesting: of brackets in the text, and the height of any block or
-/// expression tree built from it.
+/// expression tree built from it, where a chain of binary operators written without
+/// brackets (`a + b + c + …`) counts as one level (consumers walk it in a loop).
 pub const MAX_NESTING: usize = 256;
+
+/// The most binary operators in one expression (with the expressions nested in it): a
+/// chain's length, bounded so that the tree's true height (which the derived `Clone`,
+/// `PartialEq` and `Drop` recurse to) stays small.
+pub const MAX_OPERATORS: usize = 1024;
 
 /// Parses a `.mbd` file.
 ///

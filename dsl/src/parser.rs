@@ -11,7 +11,7 @@ use pest::Parser as _;
 use crate::ast::*;
 use crate::error::ParseError;
 use crate::lexer::{prelex, Lexed};
-use crate::{MAX_INPUT_LEN, MAX_NESTING};
+use crate::{MAX_INPUT_LEN, MAX_NESTING, MAX_OPERATORS};
 
 #[derive(pest_derive::Parser)]
 #[grammar = "grammar.pest"]
@@ -100,11 +100,14 @@ fn parse_lexed(src: &str, lexed: Lexed) -> Result<File, Vec<ParseError>> {
                 let mut builder = Builder {
                     text: &text,
                     errors: Vec::new(),
+                    operators: 0,
+                    expr_level: 0,
                 };
                 let mut file = builder.file(file_pair);
                 errors.extend(builder.errors);
                 if errors.is_empty() {
                     attach_comments(&mut file.items, &mut file.trailing_comments, &comments, src);
+                    mark_blank_lines(&mut file.items, &mut file.trailing_comments, src);
                     return Ok(file);
                 }
                 break;
@@ -147,6 +150,8 @@ fn parse_lexed_expr(text: String) -> Result<Expr, Vec<ParseError>> {
     let mut builder = Builder {
         text: &text,
         errors: Vec::new(),
+        operators: 0,
+        expr_level: 0,
     };
     let result = parsed
         .next()
@@ -238,6 +243,10 @@ fn blank_region(text: &mut String, pos: usize, pairs: &[(usize, usize)]) -> bool
 struct Builder<'t> {
     text: &'t str,
     errors: Vec<ParseError>,
+    /// Binary operators in the outermost expression being built (with its nested ones).
+    operators: usize,
+    /// How many `expr` calls are under way (0: none, 1: the outermost).
+    expr_level: usize,
 }
 
 type Res<T> = Result<T, ParseError>;
@@ -452,6 +461,7 @@ impl<'t> Builder<'t> {
                 trailing_comment: None,
                 kind,
                 span,
+                blank_before: false,
             },
             height,
         ))
@@ -581,6 +591,7 @@ impl<'t> Builder<'t> {
                     otherwise: other,
                 },
                 span: item_span,
+                blank_before: false,
             };
             let hb = check_height(h.max(ho) + 1, item_span)?;
             otherwise = Some((
@@ -729,7 +740,21 @@ impl<'t> Builder<'t> {
     /// An expression: validates the flat operator sequence and folds it by precedence with
     /// explicit stacks (shunting-yard), so that neither long chains nor long prefix runs
     /// recurse.
+    /// An expression with the height consumers recurse to: a chain of binary operators
+    /// written without brackets (`a + b + c`, a left-deep tree) counts once, since consumers
+    /// walk its left spine in a loop; only `^` (right-associative) counts per operator. The
+    /// length of chains is bounded separately, by [`MAX_OPERATORS`] per expression.
     fn expr(&mut self, pair: Pair<'_, Rule>) -> Res<(Expr, u32)> {
+        if self.expr_level == 0 {
+            self.operators = 0;
+        }
+        self.expr_level += 1;
+        let r = self.expr_inner(pair);
+        self.expr_level -= 1;
+        r
+    }
+
+    fn expr_inner(&mut self, pair: Pair<'_, Rule>) -> Res<(Expr, u32)> {
         let mut segments: Vec<Segment> = Vec::new();
         let mut ops: Vec<(BinOp, Span)> = Vec::new();
         let mut prefixes: Vec<(UnOp, Span)> = Vec::new();
@@ -817,6 +842,14 @@ impl<'t> Builder<'t> {
             }
         }
 
+        if let Some((_, at)) = ops.get(MAX_OPERATORS.saturating_sub(self.operators)) {
+            return Err(ParseError::new(
+                *at,
+                format!("more than {MAX_OPERATORS} operators in one expression"),
+            )
+            .with_help("split it into parts with `const` declarations and add those"));
+        }
+        self.operators += ops.len();
         // Shunting-yard.
         let mut out: Vec<(Expr, u32)> = Vec::with_capacity(segments.len());
         let mut stack: Vec<StackOp> = Vec::new();
@@ -1214,7 +1247,14 @@ fn reduce(out: &mut Vec<(Expr, u32)>, op: StackOp) -> Res<()> {
             let (rhs, hr) = out.pop().ok_or_else(internal)?;
             let (lhs, hl) = out.pop().ok_or_else(internal)?;
             let span = lhs.span.to(rhs.span);
-            let h = check_height(hl.max(hr) + 1, span)?;
+            // the left operand of a left-associative operator is walked in a loop by
+            // consumers (see `expr`): only the right one adds a level
+            let h = if b == BinOp::Pow {
+                hl.max(hr) + 1
+            } else {
+                hl.max(hr + 1)
+            };
+            let h = check_height(h, span)?;
             out.push((
                 Expr {
                     kind: ExprKind::Binary {
@@ -1285,6 +1325,38 @@ fn attach_comments(
             }
         }
         item.comments.extend(rest);
+    }
+}
+
+/// Whether a blank line (two line ends with only blanks between) comes right before `start`;
+/// not at the start of the file.
+fn blank_line_before(src: &[u8], start: usize) -> bool {
+    let mut newlines = 0;
+    for &b in src[..start.min(src.len())].iter().rev() {
+        match b {
+            b'\n' => newlines += 1,
+            b' ' | b'\t' | b'\r' => {}
+            _ => return newlines >= 2,
+        }
+    }
+    false
+}
+
+/// Sets `blank_before` of every item and comment from the source, so that
+/// [`format`](crate::format()) keeps the author's blank lines (runs collapsed to one).
+fn mark_blank_lines(items: &mut [Item], trailing: &mut [Comment], src: &str) {
+    let bytes = src.as_bytes();
+    for item in items.iter_mut() {
+        item.blank_before = blank_line_before(bytes, item.span.start);
+        for c in &mut item.comments {
+            c.blank_before = blank_line_before(bytes, c.span.start);
+        }
+        for block in item_blocks(&mut item.kind) {
+            mark_blank_lines(&mut block.items, &mut block.trailing_comments, src);
+        }
+    }
+    for c in trailing {
+        c.blank_before = blank_line_before(bytes, c.span.start);
     }
 }
 

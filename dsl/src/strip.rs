@@ -1,10 +1,11 @@
-//! Comparing trees modulo layout: reset every span to [`Span::default`].
+//! Comparing trees modulo layout: reset every span to [`Span::default`] and every
+//! `blank_before` to `false`.
 
 use crate::ast::*;
 
 /// Sets every span in the file (items, blocks, names, expressions, units, comments) to
-/// [`Span::default`], so that two parses of differently laid-out text compare equal with
-/// `==` when they have the same structure, text of literals, and comments.
+/// [`Span::default`] and forgets blank lines (`blank_before`), so that two parses of
+/// differently laid-out text compare equal with `==` when they have the same structure, text of literals, and comments.
 ///
 /// ```
 /// let mut a = mbdc_dsl::parse("body b { mass 1 kg }").unwrap();
@@ -26,6 +27,7 @@ pub fn strip_expr_spans(expr: &mut Expr) {
 fn comments(cs: &mut [Comment]) {
     for c in cs {
         c.span = Span::default();
+        c.blank_before = false;
     }
 }
 
@@ -42,9 +44,11 @@ fn block(b: &mut Block) {
 fn items(its: &mut [Item]) {
     for it in its {
         it.span = Span::default();
+        it.blank_before = false;
         comments(&mut it.comments);
         if let Some(c) = &mut it.trailing_comment {
             c.span = Span::default();
+            c.blank_before = false;
         }
         match &mut it.kind {
             ItemKind::Import { path } => path.span = Span::default(),
@@ -165,8 +169,22 @@ fn expr(e: &mut Expr) {
         ExprKind::Paren(inner) => expr(inner),
         ExprKind::Unary { expr: inner, .. } => expr(inner),
         ExprKind::Binary { lhs, rhs, .. } => {
-            expr(lhs);
+            // a chain `a + b + …` is as deep as it is long: walk its left operands in a loop
             expr(rhs);
+            let mut left: &mut Expr = lhs;
+            loop {
+                let cur = left;
+                if !matches!(cur.kind, ExprKind::Binary { .. }) {
+                    expr(cur);
+                    break;
+                }
+                cur.span = Span::default();
+                let ExprKind::Binary { lhs, rhs, .. } = &mut cur.kind else {
+                    break;
+                };
+                expr(rhs);
+                left = lhs;
+            }
         }
     }
 }

@@ -320,21 +320,42 @@ fn deep_nesting_is_an_error_not_a_stack_overflow() {
             e.message
         );
     }
-    // Deep trees without brackets: prefix runs, operator chains, else-if chains.
+    // Deep trees without brackets: prefix runs, `^` chains (right-associative), else-if
+    // chains.
     for src in [
         format!("x y = {}1", "-".repeat(100_000)),
         format!("x y = {}a", "not ".repeat(10_000)),
-        format!("x y = {}", vec!["a"; 100_000].join("+")),
-        format!("x y = {}", vec!["a"; 100_000].join("^")),
+        format!("x y = {}", vec!["a"; 300].join("^")),
         format!("if a {{}} {}", "else if b {} ".repeat(5_000)),
     ] {
         let e = first_error(&src);
         assert!(e.message.starts_with("nested too deeply"), "{}", e.message);
     }
-    // Just below the limit, a long chain parses and formats.
-    let chain = format!("x y = {}", vec!["a"; 200].join(" + "));
+    // A chain of left-associative operators is one level deep however long; its length has
+    // its own limit, reported at the first operator past it.
+    let n = mbdc_dsl::MAX_OPERATORS;
+    let src = format!("x y = {}", vec!["a"; 100_000].join("+"));
+    let e = first_error(&src);
+    assert_eq!(
+        e.message,
+        format!("more than {n} operators in one expression")
+    );
+    assert_eq!(e.span.start, "x y = ".len() + 2 * n + 1);
+    // nested expressions count together
+    let src = format!(
+        "x y = ({}) * ({})",
+        vec!["a"; n / 2 + 1].join("+"),
+        vec!["a"; n / 2 + 1].join("+")
+    );
+    let e = first_error(&src);
+    assert!(e.message.starts_with("more than"), "{}", e.message);
+    // At the limit, a long chain parses and formats, and so do sums of products.
+    let chain = format!("x y = {}", vec!["a"; n + 1].join(" + "));
     let f = common::parse_ok(&chain);
     assert_eq!(mbdc_dsl::format(&f), format!("{chain}\n"));
+    let mixed = format!("x y = {}", vec!["2 * a - b / c"; n / 4].join(" + "));
+    let f = common::parse_ok(&mixed);
+    assert_eq!(mbdc_dsl::format(&f), format!("{mixed}\n"));
     // Wide is fine: long lists and many items.
     let wide = format!("x y = [{}]", vec!["(1, 2) m"; 100_000].join(", "));
     common::parse_ok(&wide);
@@ -352,6 +373,29 @@ fn deep_nesting_within_the_limit_works_on_a_small_stack() {
         })
         .expect("thread");
     assert_eq!(handle.join().expect("no stack overflow"), Ok(1));
+}
+
+/// A chain at the operator limit is as tall a tree as any input can build: parsing,
+/// formatting, comparing, cloning and dropping it must fit a small stack.
+#[test]
+fn the_longest_chain_works_on_a_small_stack() {
+    let handle = std::thread::Builder::new()
+        .stack_size(512 * 1024)
+        .spawn(|| {
+            let n = mbdc_dsl::MAX_OPERATORS;
+            let src = format!("x y = {}", vec!["a"; n + 1].join(" + "));
+            let f = mbdc_dsl::parse(&src).expect("parses");
+            let text = mbdc_dsl::format(&f);
+            let mut a = f.clone();
+            let mut b = mbdc_dsl::parse(&text).expect("parses again");
+            mbdc_dsl::strip_spans(&mut a);
+            mbdc_dsl::strip_spans(&mut b);
+            assert!(a == b);
+            drop((a, b, f));
+            text.len()
+        })
+        .expect("thread");
+    assert!(handle.join().expect("no stack overflow") > 2 * mbdc_dsl::MAX_OPERATORS);
 }
 
 #[test]

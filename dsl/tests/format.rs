@@ -99,11 +99,28 @@ fn top_level_items_with_blocks_are_separated_by_a_blank_line() {
         fmt(src),
         "import \"a.mbd\"\nparam N = 2\n\n// the arm\ncomponent A() { x 1 }\n\nmodel m { y 2 }\n\nconst c = 1\nconst d = 2\n"
     );
-    // Inside blocks there are no blank lines.
+    // Inside blocks, blank lines are the author's: a run is kept as one, none at the ends.
     assert_eq!(
         fmt("m {\n\n  a 1\n\n\n  b {}\n\n}\n"),
-        "m {\n  a 1\n  b {}\n}\n"
+        "m {\n  a 1\n\n  b {}\n}\n"
     );
+}
+
+/// `mbdc fmt` deleted every blank line: a model's grouping (parameters, then bodies, then
+/// joints) was lost on the first format. Blank lines are kept, runs collapsed to one, at
+/// every level and around comments; none at the start or end of a block or file.
+#[test]
+fn blank_lines_between_items_are_kept() {
+    let src = "\n\n// header\n\n\n// about m\nmodel m {\n\n  param L = 1 m\n  param M = 2 kg\n\n\n\n  // bodies\n\n  body a { mass M }\n  body b {\n    mass M\n\n    inertia sphere(radius: L)\n  }\n\n  // the end\n\n}\n\n// tail\n\n";
+    assert_eq!(
+        fmt(src),
+        "// header\n\n// about m\nmodel m {\n  param L = 1 m\n  param M = 2 kg\n\n  // bodies\n\n  body a { mass M }\n  body b {\n    mass M\n\n    inertia sphere(radius: L)\n  }\n\n  // the end\n}\n\n// tail\n"
+    );
+    // a block whose properties the author separated stays on several lines
+    assert_eq!(fmt("b {\n  a 1\n\n  c 2\n}\n"), "b {\n  a 1\n\n  c 2\n}\n");
+    assert_eq!(fmt("b {\n  a 1\n  c 2\n}\n"), "b { a 1; c 2 }\n");
+    // items on one line have no blank line between them
+    assert_eq!(fmt("m {\n  a 1; b 2\n}\n"), "m { a 1; b 2 }\n");
 }
 
 #[test]
@@ -134,7 +151,7 @@ fn comments_are_kept_in_place() {
     let src = "// file\n\n// model\nmodel m { // brace\n  a 1 /* a */\n  /* b */ b 2\n}  // after\n/* end */\n";
     assert_eq!(
         fmt(src),
-        "// file\n// model\nmodel m {\n  // brace\n  a 1 /* a */\n  /* b */\n  b 2\n} // after\n/* end */\n"
+        "// file\n\n// model\nmodel m {\n  // brace\n  a 1 /* a */\n  /* b */\n  b 2\n} // after\n/* end */\n"
     );
     // Multi-line block comments are printed verbatim.
     assert_eq!(

@@ -291,13 +291,18 @@ fn expr() -> impl Strategy<Value = Expr> {
 }
 
 fn comment() -> impl Strategy<Value = Comment> {
-    prop_oneof![
+    let text = prop_oneof![
         "[ -~]{0,12}".prop_map(|t| format!("//{t}")),
         "[ -~\n]{0,12}"
             .prop_filter("no end marker", |t| !t.contains("*/"))
             .prop_map(|t| format!("/*{t}*/")),
-    ]
-    .prop_map(|text| Comment { text, span: sp() })
+    ];
+    // blank lines are layout: formatted where they may be, forgotten by the comparison
+    (text, any::<bool>()).prop_map(|(text, blank_before)| Comment {
+        text,
+        span: sp(),
+        blank_before,
+    })
 }
 
 fn comments(max: usize) -> impl Strategy<Value = Vec<Comment>> {
@@ -357,6 +362,7 @@ fn item_kind(inner: BoxedStrategy<Item>) -> impl Strategy<Value = ItemKind> {
                             otherwise: Some(other),
                         },
                         span: sp(),
+                        blank_before: false,
                     };
                     Some(Block {
                         items: vec![nested],
@@ -397,12 +403,14 @@ fn item() -> impl Strategy<Value = Item> {
             prop::option::weighted(0.3, comments(2)),
             prop::option::weighted(0.2, comment()),
             kind,
+            any::<bool>(),
         )
-            .prop_map(|(c, trailing_comment, kind)| Item {
+            .prop_map(|(c, trailing_comment, kind, blank_before)| Item {
                 comments: c.unwrap_or_default(),
                 trailing_comment,
                 kind,
                 span: sp(),
+                blank_before,
             })
     };
     wrap(leaf_item.boxed()).prop_recursive(3, 24, 4, move |inner| {

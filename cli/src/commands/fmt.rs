@@ -23,14 +23,15 @@ pub fn run(args: Args) -> ExitCode {
     let mut failed = false;
     let mut unformatted = Vec::new();
     for path in &args.files {
-        let text = match std::fs::read_to_string(path) {
-            Ok(t) => t,
-            Err(e) => {
-                eprintln!("error: cannot read `{}`: {e}", path.display());
-                failed = true;
-                continue;
-            }
-        };
+        let text =
+            match mbdc_compiler::load::read_input(path, mbdc_compiler::load::MAX_SOURCE_BYTES) {
+                Ok(t) => t,
+                Err(e) => {
+                    eprintln!("error: cannot read `{}`: {e}", path.display());
+                    failed = true;
+                    continue;
+                }
+            };
         let file = match mbdc_dsl::parse(&text) {
             Ok(f) => f,
             Err(errs) => {

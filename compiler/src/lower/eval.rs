@@ -11,6 +11,7 @@ use mbdc_runtime::scene::{Fn1, UnaryFn};
 
 use super::{Lowerer, Reported, Scope, R};
 use crate::diag::{codes, Diagnostic};
+use crate::env::BindKind;
 use crate::fn1;
 use crate::suggest;
 use crate::units::{self, Dim};
@@ -159,7 +160,17 @@ impl Lowerer<'_> {
             }
             ExprKind::Str(s) => Ok(Value::Str(s.value.clone())),
             ExprKind::Bool(b) => Ok(Value::Bool(*b)),
-            ExprKind::Ident(id) => Ok(self.lookup(&id.name, id.span, sc)),
+            ExprKind::Ident(id) => {
+                if sc
+                    .env
+                    .get(&id.name)
+                    .is_some_and(|f| f.kind == BindKind::Failed)
+                {
+                    // the value's own error is reported where it was declared
+                    return Err(Reported);
+                }
+                Ok(self.lookup(&id.name, id.span, sc))
+            }
             ExprKind::Paren(inner) => self.eval(inner, sc),
             ExprKind::Tuple(items) => {
                 let mut out = Vec::with_capacity(items.len());
@@ -296,7 +307,7 @@ impl Lowerer<'_> {
                 let b = self.boolean(expr, sc)?;
                 Ok(Value::Bool(!b))
             }
-            ExprKind::Binary { op, lhs, rhs } => self.binary(*op, lhs, rhs, e.span, sc),
+            ExprKind::Binary { .. } => self.binary_chain(e, sc),
         }
     }
 
@@ -458,10 +469,42 @@ impl Lowerer<'_> {
         self.report(d)
     }
 
-    fn binary(&mut self, op: BinOp, lhs: &Expr, rhs: &Expr, span: Span, sc: &Scope) -> R<Value> {
+    /// A binary operation. A chain `a + b - c …` (a left-deep tree, as deep as it is long)
+    /// is evaluated from its leftmost operand in a loop, so that only the right operands
+    /// count against [`MAX_EXPR_DEPTH`] (as the parser counts them against its nesting
+    /// limit); `^` ends the walk (it is right-associative).
+    fn binary_chain(&mut self, e: &Expr, sc: &Scope) -> R<Value> {
+        let mut spine: Vec<&Expr> = Vec::new();
+        let mut cur = e;
+        while let ExprKind::Binary { op, lhs, .. } = &cur.kind {
+            spine.push(cur);
+            cur = lhs;
+            if *op == BinOp::Pow {
+                break;
+            }
+        }
+        let mut value = self.eval(cur, sc)?;
+        for node in spine.into_iter().rev() {
+            if let ExprKind::Binary { op, lhs, rhs } = &node.kind {
+                value = self.binary(*op, value, lhs, rhs, node.span, sc)?;
+            }
+        }
+        Ok(value)
+    }
+
+    /// `lhs op rhs`, where `a` is the value of `lhs` (already evaluated).
+    fn binary(
+        &mut self,
+        op: BinOp,
+        a: Value,
+        lhs: &Expr,
+        rhs: &Expr,
+        span: Span,
+        sc: &Scope,
+    ) -> R<Value> {
         match op {
             BinOp::At => {
-                let body = match self.eval(lhs, sc)? {
+                let body = match a {
                     Value::Name(n) => n,
                     other => {
                         return Err(self.report(
@@ -493,7 +536,7 @@ impl Lowerer<'_> {
                 Ok(Value::Attach(Box::new(Attach { body, point, span })))
             }
             BinOp::And | BinOp::Or => {
-                let a = self.boolean(lhs, sc)?;
+                let a = self.boolean_of(a, lhs, sc)?;
                 if op == BinOp::And && !a {
                     return Ok(Value::Bool(false));
                 }
@@ -504,7 +547,6 @@ impl Lowerer<'_> {
                 Ok(Value::Bool(b))
             }
             BinOp::Eq | BinOp::Ne | BinOp::Lt | BinOp::Le | BinOp::Gt | BinOp::Ge => {
-                let a = self.eval(lhs, sc)?;
                 let b = self.eval(rhs, sc)?;
                 match (&a, &b, op) {
                     (Value::Bool(x), Value::Bool(y), BinOp::Eq) => return Ok(Value::Bool(x == y)),
@@ -530,12 +572,10 @@ impl Lowerer<'_> {
                 Ok(Value::Bool(r))
             }
             BinOp::Add | BinOp::Sub => {
-                let a = self.eval(lhs, sc)?;
                 let b = self.eval(rhs, sc)?;
                 self.add_values(a, b, op == BinOp::Sub, lhs.span, rhs.span, span, sc)
             }
             BinOp::Mul => {
-                let a = self.eval(lhs, sc)?;
                 let b = self.eval(rhs, sc)?;
                 match (a, b) {
                     (Value::Tuple(x), Value::Tuple(_)) => Err(self.report(
@@ -566,7 +606,6 @@ impl Lowerer<'_> {
                 }
             }
             BinOp::Div => {
-                let a = self.eval(lhs, sc)?;
                 let b = self.eval(rhs, sc)?;
                 let qb = self.scalar_of(b, rhs.span, sc)?;
                 if qb.constant() == Some(0.0) {
@@ -591,7 +630,7 @@ impl Lowerer<'_> {
                 }
             }
             BinOp::Rem => {
-                let qa = self.num(lhs, sc)?;
+                let qa = self.scalar_of(a, lhs.span, sc)?;
                 let qb = self.num(rhs, sc)?;
                 self.same_dims(&qa, &qb, lhs.span, rhs.span, sc, "take the remainder of")?;
                 let x = self.constant_of(&qa, lhs.span, sc, "an operand of `%`")?;
@@ -615,7 +654,7 @@ impl Lowerer<'_> {
                 }))
             }
             BinOp::Pow => {
-                let qa = self.num(lhs, sc)?;
+                let qa = self.scalar_of(a, lhs.span, sc)?;
                 let qe = self.num(rhs, sc)?;
                 if !qe.dim.is_none() && !qe.poly {
                     return Err(self.report(
@@ -1433,7 +1472,13 @@ impl Lowerer<'_> {
 
     /// A boolean.
     pub(crate) fn boolean(&mut self, e: &Expr, sc: &Scope) -> R<bool> {
-        match self.eval(e, sc)? {
+        let v = self.eval(e, sc)?;
+        self.boolean_of(v, e, sc)
+    }
+
+    /// The value `v` of `e` as a condition.
+    fn boolean_of(&mut self, v: Value, e: &Expr, sc: &Scope) -> R<bool> {
+        match v {
             Value::Bool(b) => Ok(b),
             other => Err(self.report(
                 Diagnostic::error(

@@ -205,12 +205,13 @@ impl<'a> Lowerer<'a> {
                         self.dup_value(&name.name, f.id, name.span, pf, ps);
                         continue;
                     }
-                    if let Ok(v) = self.eval_param(&name.name, name.span, value, &sc) {
-                        bound.insert(name.name.clone(), (f.id, name.span));
-                        sc.env =
-                            sc.env
-                                .bind(name.name.clone(), v, BindKind::Param, f.id, name.span);
-                    }
+                    // a value that failed is bound as failed: its uses are not reported again
+                    let (v, kind) = match self.eval_param(&name.name, name.span, value, &sc) {
+                        Ok(v) => (v, BindKind::Param),
+                        Err(Reported) => (Value::Bool(false), BindKind::Failed),
+                    };
+                    bound.insert(name.name.clone(), (f.id, name.span));
+                    sc.env = sc.env.bind(name.name.clone(), v, kind, f.id, name.span);
                 }
                 ItemKind::Const { name, value } => {
                     self.count_item(f.id, it.span);
@@ -218,12 +219,13 @@ impl<'a> Lowerer<'a> {
                         self.dup_value(&name.name, f.id, name.span, pf, ps);
                         continue;
                     }
-                    if let Ok(v) = self.eval(value, &sc) {
-                        bound.insert(name.name.clone(), (f.id, name.span));
-                        sc.env =
-                            sc.env
-                                .bind(name.name.clone(), v, BindKind::Const, f.id, name.span);
-                    }
+                    // a value that failed is bound as failed: its uses are not reported again
+                    let (v, kind) = match self.eval(value, &sc) {
+                        Ok(v) => (v, BindKind::Const),
+                        Err(Reported) => (Value::Bool(false), BindKind::Failed),
+                    };
+                    bound.insert(name.name.clone(), (f.id, name.span));
+                    sc.env = sc.env.bind(name.name.clone(), v, kind, f.id, name.span);
                 }
                 ItemKind::Decl { keyword, name, .. } if keyword.name == "model" => {
                     if idx != main {
@@ -460,27 +462,24 @@ impl<'a> Lowerer<'a> {
                             }),
                         );
                         // Bind it as a constant so that its uses do not cascade.
-                        if let Ok(v) = self.eval(value, sc) {
-                            sc.env = sc.env.bind(
-                                name.name.clone(),
-                                v,
-                                BindKind::Const,
-                                sc.file,
-                                name.span,
-                            );
-                        }
+                        let (v, kind) = match self.eval(value, sc) {
+                            Ok(v) => (v, BindKind::Const),
+                            Err(Reported) => (Value::Bool(false), BindKind::Failed),
+                        };
+                        sc.env = sc.env.bind(name.name.clone(), v, kind, sc.file, name.span);
                         continue;
                     }
                     if let Some(&ps) = local.get(&name.name) {
                         self.dup_value(&name.name, sc.file, name.span, sc.file, ps);
                         continue;
                     }
-                    if let Ok(v) = self.eval_param(&name.name, name.span, value, sc) {
-                        local.insert(name.name.clone(), name.span);
-                        sc.env =
-                            sc.env
-                                .bind(name.name.clone(), v, BindKind::Param, sc.file, name.span);
-                    }
+                    // a value that failed is bound as failed: its uses are not reported again
+                    let (v, kind) = match self.eval_param(&name.name, name.span, value, sc) {
+                        Ok(v) => (v, BindKind::Param),
+                        Err(Reported) => (Value::Bool(false), BindKind::Failed),
+                    };
+                    local.insert(name.name.clone(), name.span);
+                    sc.env = sc.env.bind(name.name.clone(), v, kind, sc.file, name.span);
                 }
                 ItemKind::Const { name, value } => {
                     if !self.count_item(sc.file, it.span) {
@@ -490,12 +489,13 @@ impl<'a> Lowerer<'a> {
                         self.dup_value(&name.name, sc.file, name.span, sc.file, ps);
                         continue;
                     }
-                    if let Ok(v) = self.eval(value, sc) {
-                        local.insert(name.name.clone(), name.span);
-                        sc.env =
-                            sc.env
-                                .bind(name.name.clone(), v, BindKind::Const, sc.file, name.span);
-                    }
+                    // a value that failed is bound as failed: its uses are not reported again
+                    let (v, kind) = match self.eval(value, sc) {
+                        Ok(v) => (v, BindKind::Const),
+                        Err(Reported) => (Value::Bool(false), BindKind::Failed),
+                    };
+                    local.insert(name.name.clone(), name.span);
+                    sc.env = sc.env.bind(name.name.clone(), v, kind, sc.file, name.span);
                 }
                 ItemKind::For {
                     var,

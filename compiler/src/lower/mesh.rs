@@ -696,7 +696,7 @@ impl<'a> Lowerer<'a> {
         let display = crate::load::normalize(&name_dir.join(&rel))
             .to_string_lossy()
             .replace('\\', "/");
-        let text = match std::fs::read_to_string(&path) {
+        let text = match crate::load::read_input(&path, crate::load::MAX_MESH_BYTES) {
             Ok(t) => t,
             Err(err) => {
                 return Err(self.report(

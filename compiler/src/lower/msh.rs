@@ -56,6 +56,9 @@ pub fn type_name(t: u32) -> String {
     }
 }
 
+/// The most nodes a mesh may have.
+pub const MAX_NODES: usize = 50_000_000;
+
 struct Lines<'t> {
     lines: Vec<(usize, Vec<&'t str>)>,
     pos: usize,
@@ -79,6 +82,27 @@ impl<'t> Lines<'t> {
         })?;
         self.pos += 1;
         Ok(l)
+    }
+
+    /// The number of lines not read yet.
+    fn remaining(&self) -> usize {
+        self.lines.len() - self.pos
+    }
+
+    /// Checks a count read at `line` against what the rest of the file can hold: each item
+    /// takes at least a line, so a count larger than the lines left is refused before
+    /// anything is allocated or read for it.
+    fn check_count(&self, n: usize, line: usize, what: &str) -> Result<usize, MshError> {
+        let left = self.remaining();
+        if n > left {
+            return Err(MshError {
+                line,
+                message: format!(
+                    "the file says {n} {what}, but only {left} lines follow (each needs a line)"
+                ),
+            });
+        }
+        Ok(n)
     }
 }
 
@@ -127,6 +151,7 @@ pub fn parse(text: &str) -> Result<MshData, MshError> {
             "PhysicalNames" => {
                 let (ln2, t) = l.next("the number of physical names")?;
                 let n: usize = num(t.first(), ln2, "a count")?;
+                let n = l.check_count(n, ln2, "physical names")?;
                 for _ in 0..n {
                     let (lp, t) = l.next("a physical name")?;
                     let dim: i32 = num(t.first(), lp, "a dimension")?;
@@ -142,6 +167,8 @@ pub fn parse(text: &str) -> Result<MshData, MshError> {
                 for (i, c) in counts.iter_mut().enumerate() {
                     *c = num(t.get(i), ln2, "an entity count")?;
                 }
+                let all = counts.iter().fold(0usize, |a, &c| a.saturating_add(c));
+                l.check_count(all, ln2, "entities")?;
                 for (dim, count) in counts.iter().enumerate() {
                     for _ in 0..*count {
                         let (le, t) = l.next("an entity")?;
@@ -149,6 +176,15 @@ pub fn parse(text: &str) -> Result<MshData, MshError> {
                         // points: tag x y z nphys ...; others: tag 6 bounds nphys ...
                         let k = if dim == 0 { 4 } else { 7 };
                         let nphys: usize = num(t.get(k), le, "a number of physical tags")?;
+                        let on_line = t.len().saturating_sub(k + 1);
+                        if nphys > on_line {
+                            return Err(MshError {
+                                line: le,
+                                message: format!(
+                                    "the entity says {nphys} physical tags, but the line has {on_line}"
+                                ),
+                            });
+                        }
                         let mut phys = Vec::with_capacity(nphys);
                         for j in 0..nphys {
                             phys.push(num::<i32>(t.get(k + 1 + j), le, "a physical tag")?);
@@ -161,17 +197,21 @@ pub fn parse(text: &str) -> Result<MshData, MshError> {
                 let (ln2, t) = l.next("node counts")?;
                 let blocks: usize = num(t.first(), ln2, "a block count")?;
                 let total: usize = num(t.get(1), ln2, "a node count")?;
-                if total > 50_000_000 {
+                if total > MAX_NODES {
                     return Err(MshError {
                         line: ln2,
-                        message: "too many nodes".into(),
+                        message: format!("{total} nodes is more than the {MAX_NODES} mbdc reads"),
                     });
                 }
+                // a block takes a header line; a node its tag and its coordinates
+                l.check_count(blocks, ln2, "node blocks")?;
+                l.check_count(total, ln2, "nodes")?;
                 for _ in 0..blocks {
                     let (lb, t) = l.next("a node block")?;
                     let edim: usize = num(t.first(), lb, "an entity dimension")?;
                     let parametric: i32 = num(t.get(2), lb, "the parametric flag")?;
                     let n: usize = num(t.get(3), lb, "a node count")?;
+                    let n = l.check_count(n, lb, "nodes in this block")?;
                     let mut tags = Vec::with_capacity(n.min(total));
                     while tags.len() < n {
                         let (lt, t) = l.next("node tags")?;
@@ -205,12 +245,14 @@ pub fn parse(text: &str) -> Result<MshData, MshError> {
             "Elements" => {
                 let (ln2, t) = l.next("element counts")?;
                 let blocks: usize = num(t.first(), ln2, "a block count")?;
+                l.check_count(blocks, ln2, "element blocks")?;
                 for _ in 0..blocks {
                     let (lb, t) = l.next("an element block")?;
                     let edim: i32 = num(t.first(), lb, "an entity dimension")?;
                     let etag: i32 = num(t.get(1), lb, "an entity tag")?;
                     let etype: u32 = num(t.get(2), lb, "an element type")?;
                     let n: usize = num(t.get(3), lb, "an element count")?;
+                    let n = l.check_count(n, lb, "elements in this block")?;
                     for _ in 0..n {
                         let (le, t) = l.next("an element")?;
                         if t.len() < 2 {
@@ -313,6 +355,64 @@ $EndElements
         assert_eq!(m.elements[1].nodes, vec![1, 2, 3, 4]);
         assert_eq!(m.physical_names[0], (1, 1, "left".into()));
         assert_eq!(m.entity_physicals[&(1, 1)], vec![1]);
+    }
+
+    /// An absurd count is refused with its line before anything is allocated for it (it
+    /// used to abort the process: a physical-tag count of 10^17 asked for 4·10^17 bytes).
+    #[test]
+    fn absurd_counts_are_refused_with_their_line() {
+        let huge = "99999999999999999";
+        let cases = [
+            // (the file, the line of the count, words of the message)
+            (
+                SQUARE.replace("1 0 0 0 1 1 0 1 2 0", &format!("1 0 0 0 1 1 0 {huge} 2 0")),
+                12,
+                "physical tags",
+            ),
+            (
+                SQUARE.replace("$PhysicalNames\n2\n", &format!("$PhysicalNames\n{huge}\n")),
+                5,
+                "physical names",
+            ),
+            (
+                SQUARE.replace("0 1 1 0\n", &format!("0 1 {huge} 0\n")),
+                10,
+                "entities",
+            ),
+            (
+                SQUARE.replace("2 4 1 4\n", &format!("2 {huge} 1 4\n")),
+                15,
+                "nodes",
+            ),
+            (
+                SQUARE.replace("2 4 1 4\n", &format!("{huge} 4 1 4\n")),
+                15,
+                "node blocks",
+            ),
+            (
+                SQUARE.replace("1 1 0 2\n", &format!("1 1 0 {huge}\n")),
+                16,
+                "nodes in this block",
+            ),
+            (
+                SQUARE.replace("2 2 1 2\n", &format!("{huge} 2 1 2\n")),
+                28,
+                "element blocks",
+            ),
+            (
+                SQUARE.replace("1 1 1 1\n", &format!("1 1 1 {huge}\n")),
+                29,
+                "elements in this block",
+            ),
+        ];
+        for (text, line, what) in cases {
+            assert_ne!(text, SQUARE, "the case for {what} changed nothing");
+            let e = parse(&text).unwrap_err();
+            assert_eq!(e.line, line, "{what}: {e:?}");
+            assert!(e.message.contains(what), "{what}: {e:?}");
+        }
+        let e = parse(&SQUARE.replace("2 4 1 4\n", "2 60000000 1 4\n")).unwrap_err();
+        assert!(e.message.contains("more than the 50000000"), "{e:?}");
     }
 
     #[test]

@@ -13,7 +13,7 @@ use super::fit::{self, Fit};
 use super::interp_runner::InterpRunner;
 use super::methods::{self, MethodEntry};
 use super::numerical_reference;
-use super::options::StudyOptions;
+use super::options::{StudyOptions, LEVELS_REQUIREMENT, MAX_LEVELS};
 use super::progress::Progress;
 use super::reference::RefSolution;
 use super::result::ReferenceInfo;
@@ -52,11 +52,11 @@ impl<'s> Study<'s> {
                 got: format!("{duration} s"),
             });
         }
-        if options.levels == 0 {
+        if options.levels == 0 || options.levels > MAX_LEVELS {
             return Err(StudyError::InvalidOption {
                 option: "levels",
-                requirement: "at least 1",
-                got: "0".into(),
+                requirement: LEVELS_REQUIREMENT,
+                got: options.levels.to_string(),
             });
         }
         if options.reference_refine < 2 {

@@ -124,7 +124,7 @@ pub use error_measures::{measure, rotation_angle, Errors, Measure};
 pub use fit::{Excluded, Fit};
 pub use interp_runner::InterpRunner;
 pub use methods::{theoretical_order, MethodEntry};
-pub use options::StudyOptions;
+pub use options::{StudyOptions, MAX_LEVELS};
 pub use progress::Progress;
 pub use reference::{RefBody, RefSolution};
 pub use result::{ReferenceInfo, StudyResult, StudyRun};

@@ -7,6 +7,15 @@ use std::path::PathBuf;
 
 use super::error_measures::Measure;
 
+/// Most levels of the default step series. Each level halves the step, so the finest of
+/// `levels` runs 2^(levels−1) times the steps of the first (and the numerical reference
+/// [`reference_refine`](StudyOptions::reference_refine) times more): past 20 a sweep does not
+/// end in any useful time.
+pub const MAX_LEVELS: usize = 20;
+
+/// What [`StudyOptions::levels`] must be, as the refusal says it (`MAX_LEVELS` spelled out).
+pub const LEVELS_REQUIREMENT: &str = "between 1 and 20 (each level halves the step: the 20th takes 2^19 = 524288 times the steps of the first)";
+
 /// The options of a study.
 #[derive(Clone, Debug, PartialEq)]
 pub struct StudyOptions {
@@ -17,7 +26,7 @@ pub struct StudyOptions {
     pub steps: Vec<f64>,
     /// Largest step of the default series (default: 20 steps per shortest period).
     pub h_max: Option<f64>,
-    /// Number of steps in the default series, each half the previous (at least 1).
+    /// Number of steps in the default series, each half the previous (1 to [`MAX_LEVELS`]).
     pub levels: usize,
     /// Duration, s (default: the scene's).
     pub duration: Option<f64>,
@@ -55,5 +64,22 @@ impl Default for StudyOptions {
             reference_refine: 8,
             reference_dir: None,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The refusal spells out the limit and what it costs: it must say the same as the
+    /// constant.
+    #[test]
+    fn the_levels_requirement_says_max_levels() {
+        let finest = 1u64 << (MAX_LEVELS - 1);
+        assert!(LEVELS_REQUIREMENT.contains(&format!("between 1 and {MAX_LEVELS} ")));
+        assert!(LEVELS_REQUIREMENT.contains(&format!(
+            "the {MAX_LEVELS}th takes 2^{} = {finest} times",
+            MAX_LEVELS - 1
+        )));
     }
 }

@@ -21,6 +21,70 @@ pub struct Table {
     track: Track,
 }
 
+/// Largest reference table read: 1 GiB (the `bodies.csv` of a long run of a small scene).
+pub const MAX_TABLE_BYTES: u64 = 1 << 30;
+
+/// Opens a reference table, refusing what is not a regular file (a character device such
+/// as `/dev/zero` would be read forever, a FIFO blocks until a writer comes, a directory has
+/// no rows) and a file larger than [`MAX_TABLE_BYTES`]. The reader stops at one byte past
+/// the limit, so a file that grows while it is read is caught too (see [`past_limit`]).
+fn open_table(path: &Path) -> Result<std::io::Take<std::fs::File>, ReferenceError> {
+    use std::io::Read;
+    let err = |message: String| ReferenceError::Table {
+        path: path.to_path_buf(),
+        message,
+    };
+    let meta = std::fs::metadata(path).map_err(|e| err(e.to_string()))?;
+    if !meta.is_file() {
+        return Err(err(format!(
+            "{} is not a regular file; a reference table must be a CSV file",
+            file_kind(&meta.file_type())
+        )));
+    }
+    if meta.len() > MAX_TABLE_BYTES {
+        return Err(err(too_large(meta.len())));
+    }
+    let f = std::fs::File::open(path).map_err(|e| err(e.to_string()))?;
+    Ok(f.take(MAX_TABLE_BYTES + 1))
+}
+
+fn too_large(bytes: u64) -> String {
+    format!(
+        "the file has {bytes} bytes, more than the {} MiB mbdc reads as a reference table",
+        MAX_TABLE_BYTES >> 20
+    )
+}
+
+/// Whether a reader of [`open_table`] went past the limit (the file grew while read).
+fn past_limit<R: std::io::Read>(r: &csv::Reader<R>) -> bool {
+    r.position().byte() > MAX_TABLE_BYTES
+}
+
+/// What a file that is not a regular file is, for messages.
+fn file_kind(t: &std::fs::FileType) -> &'static str {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::FileTypeExt;
+        if t.is_char_device() {
+            return "a character device";
+        }
+        if t.is_block_device() {
+            return "a block device";
+        }
+        if t.is_fifo() {
+            return "a FIFO (named pipe)";
+        }
+        if t.is_socket() {
+            return "a socket";
+        }
+    }
+    if t.is_dir() {
+        "a directory"
+    } else {
+        "a special file"
+    }
+}
+
 /// The header and the selected columns of a CSV file.
 ///
 /// Every row must have the header's number of columns; the one exception is a last line cut
@@ -35,8 +99,7 @@ fn read_columns(path: &Path, wanted: &[String]) -> Result<Vec<Vec<f64>>, Referen
     let mut r = csv::ReaderBuilder::new()
         .has_headers(true)
         .flexible(true)
-        .from_path(path)
-        .map_err(|e| err(e.to_string()))?;
+        .from_reader(open_table(path)?);
     let head: Vec<String> = r
         .headers()
         .map_err(|e| err(e.to_string()))?
@@ -79,6 +142,9 @@ fn read_columns(path: &Path, wanted: &[String]) -> Result<Vec<Vec<f64>>, Referen
             );
         }
     }
+    if past_limit(&r) {
+        return Err(err(too_large(r.position().byte())));
+    }
     Ok(data)
 }
 
@@ -116,9 +182,11 @@ fn read_header(path: &Path) -> Result<Vec<String>, ReferenceError> {
     let mut r = csv::ReaderBuilder::new()
         .has_headers(true)
         .flexible(true)
-        .from_path(path)
-        .map_err(|e| err(e.to_string()))?;
-    let h = r.headers().map_err(|e| err(e.to_string()))?;
+        .from_reader(open_table(path)?);
+    let h = r.headers().map_err(|e| err(e.to_string()))?.clone();
+    if past_limit(&r) {
+        return Err(err(too_large(r.position().byte())));
+    }
     if h.is_empty() {
         return Err(err("the file has no header line".into()));
     }
@@ -370,5 +438,43 @@ mod tests {
         std::fs::write(&p, rows("0.3,3,0,0\n", "0.6,6")).expect("write");
         let tab = Table::read(&p, &scene_with(&["b"])).expect("cut-off last line accepted");
         assert_eq!(tab.t.len(), 6);
+    }
+
+    /// `reference { table "/dev/zero" }` used to read zeros until the process aborted for
+    /// lack of memory; a FIFO blocked forever. Special files are refused by their kind,
+    /// before they are opened, with the file named.
+    #[test]
+    fn special_files_are_refused_by_their_kind() {
+        let message = |p: &Path| match Table::read(p, &scene_with(&["b"])) {
+            Err(e @ ReferenceError::Table { .. }) => e.to_string(),
+            other => panic!("expected a table error, got {other:?}"),
+        };
+        let dir = tempfile::tempdir().expect("temp dir");
+        let m = message(dir.path());
+        assert!(m.contains("a directory is not a regular file"), "{m}");
+        assert!(m.starts_with(&dir.path().display().to_string()), "{m}");
+        #[cfg(unix)]
+        {
+            let m = message(Path::new("/dev/zero"));
+            assert!(
+                m.starts_with("/dev/zero: a character device is not a regular file"),
+                "{m}"
+            );
+            let fifo = dir.path().join("fifo.csv");
+            let made = std::process::Command::new("mkfifo").arg(&fifo).status();
+            if made.is_ok_and(|s| s.success()) {
+                let m = message(&fifo);
+                assert!(
+                    m.contains("a FIFO (named pipe) is not a regular file"),
+                    "{m}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn the_size_limit_is_named() {
+        let m = too_large(MAX_TABLE_BYTES + 1);
+        assert!(m.contains("more than the 1024 MiB"), "{m}");
     }
 }
