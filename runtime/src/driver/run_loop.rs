@@ -3,9 +3,11 @@
 //! report that says where and why when it cannot continue.
 //!
 //! ## The watchdog
-//! After every step the state is checked for NaN or infinity (the first offending body is
-//! named). At every output frame, and at least every 64 steps, the constraint violation and
-//! the energy are evaluated:
+//! After every step — whatever the output rate, so that `--every 1` and `--every 10` give the
+//! same verdict at the same step — the state is checked for NaN or infinity (the first
+//! offending body is named), and the holonomic constraint violation (the constraint values
+//! only: one evaluation of Φ, no Jacobian) and the energy of the synchronized state are
+//! evaluated:
 //! - a holonomic violation above [`Watchdog::max_violation`] (default: 1% of the scene's
 //!   length scale; it is meant to catch a diverging run, not to judge accuracy) stops the
 //!   run, naming the joint;
@@ -14,6 +16,10 @@
 //!   than [`Watchdog::max_energy_growth`] of the energy in play (the largest kinetic energy plus
 //!   the potential-energy range seen so far) stops it;
 //! - a Newton or PCG iteration that does not converge, or a singular matrix, stops it.
+//!
+//! The report's largest violation and energy drift are over every step too; its `t_end` and
+//! `steps` are the time reached and the steps taken, also when the run stopped. The
+//! velocity-level residual (which needs the Jacobian) is evaluated at output frames only.
 //!
 //! Each stop carries the simulated time, step, where it started, the quantity and its value,
 //! the likely cause and what to try. With [`OnFailure::HalveStep`] the run restarts from the
@@ -130,9 +136,9 @@ impl std::fmt::Display for Failure {
 /// The outcome of a run.
 #[derive(Clone, Debug, PartialEq)]
 pub struct RunReport {
-    /// Steps taken (all step sizes).
+    /// Steps taken (all step sizes, including a step that failed).
     pub steps: u64,
-    /// Final time reached.
+    /// Time reached: the end time, or the time of the last step taken when the run stopped.
     pub t_end: f64,
     /// Step size at the end (smaller than requested after retries).
     pub step: f64,
@@ -142,9 +148,9 @@ pub struct RunReport {
     pub failure: Option<Failure>,
     /// Retries with a halved step.
     pub retries: u32,
-    /// Largest holonomic violation seen at output frames, and the joint.
+    /// Largest holonomic violation seen after any step, and the joint.
     pub max_violation: (f64, String),
-    /// Largest |E − E₀| / max(|E₀|, energy in play) seen at output frames.
+    /// Largest |E − E₀| / max(|E₀|, energy in play) seen after any step.
     pub max_energy_drift: f64,
     /// Method statistics (name, value).
     pub stats: Vec<(String, f64)>,
@@ -169,35 +175,88 @@ impl Probe {
         }
     }
 
-    /// Evaluate per-joint violations of `st`; returns (worst holonomic |Φ|, its joint).
-    fn evaluate<S: System>(&mut self, sys: &S, st: &State) {
+    /// Per-joint holonomic violations |Φ| of `st` (values only: what the watchdog checks
+    /// after every step).
+    fn holonomic<S: System>(&mut self, sys: &S, st: &State) {
         let l = sys.layout();
-        sys.constraints(
-            st.t,
-            &st.pose,
-            &st.twist,
-            Need {
-                phi: true,
-                jac: true,
-                gamma: false,
-            },
-            &mut self.ce,
-        );
-        integrators::common::velocity_residual(l, &self.ce, &st.twist, &mut self.resid);
+        sys.constraints(st.t, &st.pose, &st.twist, Need::PHI, &mut self.ce);
         for (j, jl) in l.joints.iter().enumerate() {
-            let (mut p, mut v): (f64, f64) = (0.0, 0.0);
+            let mut p: f64 = 0.0;
             for r in jl.first_row..jl.first_row + jl.rows {
-                if !st.active[r] {
-                    continue;
-                }
-                if l.row_kind[r] == RowKind::Holonomic {
+                if st.active[r] && l.row_kind[r] == RowKind::Holonomic {
                     p = p.max(self.ce.phi[r].abs());
                 }
-                v = v.max(self.resid[r].abs());
             }
             self.violation[j] = p;
+        }
+    }
+
+    /// Per-joint velocity-level residuals |B u̇ + b| of `st` (for output frames).
+    fn velocity<S: System>(&mut self, sys: &S, st: &State) {
+        let l = sys.layout();
+        sys.constraints(st.t, &st.pose, &st.twist, Need::JAC, &mut self.ce);
+        integrators::common::velocity_residual(l, &self.ce, &st.twist, &mut self.resid);
+        for (j, jl) in l.joints.iter().enumerate() {
+            let mut v: f64 = 0.0;
+            for r in jl.first_row..jl.first_row + jl.rows {
+                if st.active[r] {
+                    v = v.max(self.resid[r].abs());
+                }
+            }
             self.velocity_violation[j] = v;
         }
+    }
+}
+
+/// The energy bookkeeping of a run, updated after every step.
+struct EnergyWatch {
+    /// Total energy at the start.
+    e0: f64,
+    /// Largest kinetic energy seen.
+    in_play: f64,
+    /// Range of the potential energy seen.
+    pe_lo: f64,
+    pe_hi: f64,
+    /// Kinetic and potential energy of the last state seen.
+    kinetic: f64,
+    potential: f64,
+}
+
+impl EnergyWatch {
+    fn new<S: System>(sys: &S, st: &State) -> EnergyWatch {
+        let kinetic = energy::kinetic_energy(sys.layout(), &st.twist);
+        let potential = sys.potential_energy(st.t, &st.pose);
+        EnergyWatch {
+            e0: kinetic + potential,
+            in_play: kinetic,
+            pe_lo: potential,
+            pe_hi: potential,
+            kinetic,
+            potential,
+        }
+    }
+
+    /// Take the energies of `st` into the ranges.
+    fn observe<S: System>(&mut self, sys: &S, st: &State) {
+        self.kinetic = energy::kinetic_energy(sys.layout(), &st.twist);
+        self.potential = sys.potential_energy(st.t, &st.pose);
+        self.pe_lo = self.pe_lo.min(self.potential);
+        self.pe_hi = self.pe_hi.max(self.potential);
+        self.in_play = self.in_play.max(self.kinetic);
+    }
+
+    /// The energy in play: |E₀|, or the largest kinetic energy plus the potential-energy
+    /// range seen, whichever is larger.
+    fn scale(&self) -> f64 {
+        self.e0
+            .abs()
+            .max(self.in_play + (self.pe_hi - self.pe_lo))
+            .max(1e-300)
+    }
+
+    /// (E − E₀) / energy in play, signed.
+    fn relative_change(&self) -> f64 {
+        (self.kinetic + self.potential - self.e0) / self.scale()
     }
 }
 
@@ -235,33 +294,21 @@ pub fn run<S: System>(sys: &S, cfg: &RunConfig, obs: &mut dyn Observer) -> RunRe
         report.failure = Some(Failure {
             time: 0.0,
             step: 0,
-            location: "system".into(),
+            location: "the run settings".into(),
             quantity: "start".into(),
-            value: f64::NAN,
+            value: cfg.step,
             cause,
             hint: Some("give a positive, finite step and a finite duration".into()),
         });
         return report;
     }
-    let e0 = energy::kinetic_energy(layout, &start.twist) + sys.potential_energy(0.0, &start.pose);
-    let pe0 = sys.potential_energy(0.0, &start.pose);
-    let mut in_play: f64 = energy::kinetic_energy(layout, &start.twist);
-    let (mut pe_lo, mut pe_hi) = (pe0, pe0);
+    let mut ew = EnergyWatch::new(sys, &start);
     let every = cfg.every.max(1) as u64;
 
     // the initial frame
-    emit(
-        sys,
-        &start,
-        0,
-        &mut probe,
-        obs,
-        e0,
-        &mut in_play,
-        &mut pe_lo,
-        &mut pe_hi,
-        &mut report,
-    );
+    probe.holonomic(sys, &start);
+    track(layout, &probe, &ew, &mut report);
+    emit(sys, &start, 0, &mut probe, obs, &ew);
     'attempt: loop {
         let mut integ = match integrators::make(&cfg.method, sys, h, &start) {
             Ok(i) => i,
@@ -269,20 +316,24 @@ pub fn run<S: System>(sys: &S, cfg: &RunConfig, obs: &mut dyn Observer) -> RunRe
                 report.failure = Some(Failure {
                     time: start.t,
                     step: report.steps,
-                    location: "system".into(),
+                    location: format!("the start of method {}", cfg.method.name()),
                     quantity: "start".into(),
-                    value: f64::NAN,
+                    value: h,
                     cause: e.to_string(),
-                    hint: Some("choose another method with --method".into()),
+                    hint: Some(format!(
+                        "choose another method than {} with --method",
+                        cfg.method.name()
+                    )),
                 });
                 break;
             }
         };
         let n_total = ((cfg.duration - start.t) / h - 1e-9).ceil().max(0.0) as u64;
-        let mut since_check = 0u64;
         for k in 1..=n_total {
             let result = integ.step(sys);
             report.steps += 1;
+            // the time reached, also when this step is the one that fails
+            report.t_end = integ.time();
             let failure = match result {
                 Err(e) => Some(step_failure(sys, &e, integ.time(), report.steps, h)),
                 Ok(_) => {
@@ -291,45 +342,22 @@ pub fn run<S: System>(sys: &S, cfg: &RunConfig, obs: &mut dyn Observer) -> RunRe
                     nonfinite(sys, &st, report.steps, h)
                 }
             };
+            // The watchdog after every step, whatever the output rate: the holonomic
+            // violation (constraint values only) and the energy of the synchronized state.
+            let failure = failure.or_else(|| {
+                probe.holonomic(sys, &st);
+                ew.observe(sys, &st);
+                track(layout, &probe, &ew, &mut report);
+                check(sys, cfg, &st, &probe, report.steps, h, &ew)
+            });
             let failure = match failure {
                 Some(f) => Some(f),
                 None => {
-                    since_check += 1;
-                    let output = k % every == 0 || k == n_total;
-                    if output || since_check >= 64 {
-                        since_check = 0;
-                        probe.evaluate(sys, &st);
-                        let f = check(
-                            sys,
-                            cfg,
-                            &st,
-                            &probe,
-                            report.steps,
-                            h,
-                            e0,
-                            in_play,
-                            pe_lo,
-                            pe_hi,
-                        );
-                        if f.is_none() && output {
-                            emit(
-                                sys,
-                                &st,
-                                report.steps,
-                                &mut probe,
-                                obs,
-                                e0,
-                                &mut in_play,
-                                &mut pe_lo,
-                                &mut pe_hi,
-                                &mut report,
-                            );
-                            start.clone_from(&st);
-                        }
-                        f
-                    } else {
-                        None
+                    if k % every == 0 || k == n_total {
+                        emit(sys, &st, report.steps, &mut probe, obs, &ew);
+                        start.clone_from(&st);
                     }
+                    None
                 }
             };
             if let Some(f) = failure {
@@ -354,6 +382,7 @@ pub fn run<S: System>(sys: &S, cfg: &RunConfig, obs: &mut dyn Observer) -> RunRe
             }
         }
         report.finished = true;
+        report.t_end = start.t;
         report.stats = integ
             .stats()
             .into_iter()
@@ -361,48 +390,46 @@ pub fn run<S: System>(sys: &S, cfg: &RunConfig, obs: &mut dyn Observer) -> RunRe
             .collect();
         break;
     }
-    report.t_end = start.t;
     report.step = h;
     obs.progress(report.t_end);
     report
 }
 
-#[allow(clippy::too_many_arguments)]
+/// Fold the watchdog's per-step numbers into the report (largest violation and its joint,
+/// largest energy drift): every step counts, not only output frames.
+fn track(
+    layout: &crate::contract::system::Layout,
+    probe: &Probe,
+    ew: &EnergyWatch,
+    report: &mut RunReport,
+) {
+    report.max_energy_drift = report.max_energy_drift.max(ew.relative_change().abs());
+    for (j, v) in probe.violation.iter().enumerate() {
+        if *v > report.max_violation.0 {
+            report.max_violation = (*v, layout.joints[j].name.clone());
+        }
+    }
+}
+
+/// Hand an output frame to the observer; `probe.violation` holds the holonomic violations
+/// of `st` already (the watchdog evaluated them), `ew` its energies.
 fn emit<S: System>(
     sys: &S,
     st: &State,
     step: u64,
     probe: &mut Probe,
     obs: &mut dyn Observer,
-    e0: f64,
-    in_play: &mut f64,
-    pe_lo: &mut f64,
-    pe_hi: &mut f64,
-    report: &mut RunReport,
+    ew: &EnergyWatch,
 ) {
     let layout = sys.layout();
-    probe.evaluate(sys, st);
-    let kinetic = energy::kinetic_energy(layout, &st.twist);
-    let potential = sys.potential_energy(st.t, &st.pose);
-    *pe_lo = pe_lo.min(potential);
-    *pe_hi = pe_hi.max(potential);
-    *in_play = in_play.max(kinetic);
-    let scale = (e0.abs()).max(*in_play + (*pe_hi - *pe_lo)).max(1e-300);
-    report.max_energy_drift = report
-        .max_energy_drift
-        .max((kinetic + potential - e0).abs() / scale);
-    for (j, v) in probe.violation.iter().enumerate() {
-        if *v > report.max_violation.0 {
-            report.max_violation = (*v, layout.joints[j].name.clone());
-        }
-    }
+    probe.velocity(sys, st);
     let p = energy::linear_momentum(layout, &st.twist);
     let l = energy::angular_momentum(layout, &st.pose, &st.twist);
     obs.frame(&Frame {
         step,
         state: st,
-        kinetic,
-        potential,
+        kinetic: ew.kinetic,
+        potential: ew.potential,
         momentum: [p.x, p.y, p.z],
         angular_momentum: [l.x, l.y, l.z],
         violation: &probe.violation,
@@ -449,7 +476,6 @@ fn nonfinite<S: System>(sys: &S, st: &State, step: u64, h: f64) -> Option<Failur
     None
 }
 
-#[allow(clippy::too_many_arguments)]
 fn check<S: System>(
     sys: &S,
     cfg: &RunConfig,
@@ -457,10 +483,7 @@ fn check<S: System>(
     probe: &Probe,
     step: u64,
     h: f64,
-    e0: f64,
-    in_play: f64,
-    pe_lo: f64,
-    pe_hi: f64,
+    ew: &EnergyWatch,
 ) -> Option<Failure> {
     let layout = sys.layout();
     let w = &cfg.watchdog;
@@ -483,13 +506,7 @@ fn check<S: System>(
         }
     }
     if !w.energy_sources {
-        let kinetic = energy::kinetic_energy(layout, &st.twist);
-        let potential = sys.potential_energy(st.t, &st.pose);
-        let scale = e0
-            .abs()
-            .max(in_play.max(kinetic) + (pe_hi.max(potential) - pe_lo.min(potential)))
-            .max(1e-300);
-        let growth = (kinetic + potential - e0) / scale;
+        let growth = ew.relative_change();
         if growth > w.max_energy_growth {
             // the body with the largest kinetic energy is where it shows
             let (mut best, mut who) = (0.0, 0usize);
@@ -688,6 +705,62 @@ mod tests {
         assert!((r.t_end - 1.0).abs() < 1e-12);
         assert!(r.max_violation.0 < 1e-10);
         assert!(r.max_energy_drift < 1e-4, "{}", r.max_energy_drift);
+    }
+
+    /// The watchdog runs after every step (issue 21): a run that goes wrong between output
+    /// frames stops at the same step, at the same time, with the same report, whatever the
+    /// output rate; and the report's time and step count are where it stopped. Reference: the
+    /// run with a frame after every step. Before, the check ran at frames and every 64 steps
+    /// (so `--every 1000` stopped later, or on NaN instead of on the violation) and `t_end` was
+    /// the last frame's time (0 when no frame was written after the start).
+    #[test]
+    fn the_verdict_does_not_depend_on_the_output_rate() {
+        let sys = RodPendulum::new(1.0, 1.0, 0.01, 1.0);
+        let verdict = |every: u32| {
+            let cfg = RunConfig {
+                duration: 0.5,
+                step: 1e-3,
+                method: MethodSpec::Penalty {
+                    epsilon: Some(1e-9),
+                },
+                every,
+                on_failure: OnFailure::Stop,
+                watchdog: Watchdog::for_scale(1.0, false),
+            };
+            let mut obs = Count(0, vec![]);
+            let r = run(&sys, &cfg, &mut obs);
+            let f = r
+                .failure
+                .clone()
+                .expect("the tiny ε makes the run unstable");
+            (r, f, obs.0)
+        };
+        let (r1, f1, frames1) = verdict(1);
+        assert!(f1.step > 1, "{f1}");
+        for every in [7, 10, 1000] {
+            let (r, f, frames) = verdict(every);
+            assert_eq!(
+                (f.step, f.time, &f.location, &f.quantity),
+                (f1.step, f1.time, &f1.location, &f1.quantity),
+                "--every {every}: {f} vs --every 1: {f1}"
+            );
+            assert_eq!(f.value.to_bits(), f1.value.to_bits());
+            assert_eq!(r.steps, r1.steps);
+            assert_eq!(r.t_end.to_bits(), r1.t_end.to_bits());
+            assert_eq!(r.max_violation, r1.max_violation);
+            assert!(frames < frames1 || every as u64 >= r1.steps);
+        }
+        // the real stop: the steps taken and the time reached, not the last frame's
+        assert_eq!(r1.steps, f1.step);
+        assert!(
+            (r1.t_end - f1.time).abs() < 1e-12,
+            "{} vs {}",
+            r1.t_end,
+            f1.time
+        );
+        assert!((r1.t_end - r1.steps as f64 * 1e-3).abs() < 1e-12);
+        let (r, _, _) = verdict(1000);
+        assert!(r.t_end > 0.0 && !r.finished);
     }
 
     #[test]
