@@ -27,6 +27,15 @@ pub fn judge(scene: &Scene, method: &MethodSpec, h: f64) -> Verdict {
         return Verdict::Ok;
     };
     let (stable, accurate) = (est.stable_step(), est.accurate_step());
+    if fast.discretization && h > stable {
+        // beams are explicit whatever the method
+        return Verdict::Refuse(format!(
+            "the step {h:.3e} s is above the stability limit of the {} at ω = {:.4e} rad/s (h·ω = {:.2} > 2): beams are advanced explicitly\n  help: use a step of at most {stable:.3e} s, or raise the beam's `rotary_inertia_scale` (it lowers its shear/rotary-inertia mode; docs/methods.md, \"Beams\")",
+            fast.what,
+            fast.omega,
+            h * fast.omega
+        ));
+    }
     if step_limits::is_explicit(method) && h > stable {
         return Verdict::Refuse(format!(
             "the step {h:.3e} s is above the stability limit of the explicit method `{}`: the fastest motion is the {} at ω = {:.4e} rad/s, and h·ω = {:.2} > 2\n  help: use a step of at most {stable:.3e} s (20 steps per period: {accurate:.3e} s), or `--method implicit_trapezoid`, which has no stability limit; `--force` runs anyway",
@@ -36,12 +45,12 @@ pub fn judge(scene: &Scene, method: &MethodSpec, h: f64) -> Verdict {
             h * fast.omega
         ));
     }
-    if h > accurate {
+    if let Some(motion) = est.fastest_motion().filter(|_| h > accurate) {
         return Verdict::Warn(format!(
             "the step {h:.3e} s gives {:.1} steps per period of the {} (ω = {:.4e} rad/s); accuracy needs at least 20 (h ≤ {accurate:.3e} s)",
-            std::f64::consts::TAU / (fast.omega * h),
-            fast.what,
-            fast.omega
+            std::f64::consts::TAU / (motion.omega * h),
+            motion.what,
+            motion.omega
         ));
     }
     Verdict::Ok

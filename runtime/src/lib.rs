@@ -53,7 +53,7 @@
 //! - kernels (called by generated code): [`joints`], [`tree_joints`], [`forces`],
 //!   [`contact`], [`fn1`], [`beam_element`];
 //! - before a run: [`topology`], [`coordinates`], [`effects`], [`step_limits`],
-//!   [`input_limits`];
+//!   [`input_limits`], [`beam_model`] (beams as bodies);
 //! - running: [`linalg`], [`integrators`] (`integrators::make` builds the method a scene
 //!   asks for), [`run_loop`] (advance a `System` and stream frames to writers), [`output`],
 //!   [`assemble`], [`energy`];
@@ -73,7 +73,7 @@ pub mod interp;
 pub mod linalg;
 pub mod study;
 
-pub use analysis::{coordinates, effects, input_limits, step_limits, topology};
+pub use analysis::{beam_model, coordinates, effects, input_limits, step_limits, topology};
 pub use contract::{math, scene, system};
 pub use driver::{assemble, energy, output, run_loop};
 pub use kernels::{beam_element, contact, fn1, forces, joints, tree_joints};

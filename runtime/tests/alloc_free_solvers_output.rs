@@ -81,6 +81,7 @@ fn chain(n: usize) -> (Layout, Vec<RowJac>) {
         mass: vec![mp; n],
         row_joint: (0..rows).map(|r| r / 3).collect(),
         row_kind: vec![RowKind::Holonomic; rows],
+        beams: Default::default(),
         joints,
         rows,
     };

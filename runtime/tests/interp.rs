@@ -315,11 +315,22 @@ fn unsupported_items_are_named() {
             rho_i: 1.0,
         },
         attachments: vec![],
+        damping: 0.0,
+        rotary_inertia_scale: 1.0,
         origin: Origin::default(),
     });
+    // a beam is simulated: its nodes become bodies after the scene's
+    let i = Interp::new(&s).unwrap();
+    assert_eq!(i.layout().bodies(), p.scene.bodies.len() + 2);
+    assert_eq!(i.layout().beams.elements.len(), 1);
+    // a bad one is named
+    s.beams[0].nodes[1] = [0.0; 3];
     let e = Interp::new(&s).unwrap_err();
-    assert!(matches!(e, InterpError::Beam(ref n) if n == "boom"));
-    assert!(e.to_string().contains("beam 'boom'") && e.to_string().contains("not simulated"));
+    assert!(matches!(e, InterpError::Beam { ref name, .. } if name == "boom"));
+    assert!(
+        e.to_string().contains("beam 'boom'") && e.to_string().contains("zero length"),
+        "{e}"
+    );
 
     let mut s = p.scene.clone();
     s.contacts.push(Contact {

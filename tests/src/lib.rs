@@ -74,6 +74,8 @@ pub struct Rec {
     pub violation: Vec<f64>,
     /// Per-joint velocity-level residual.
     pub velocity_violation: Vec<f64>,
+    /// The beams' element states (empty without beams).
+    pub beams: Vec<mbdc_runtime::beam_element::ElementState>,
 }
 
 impl Rec {
@@ -129,6 +131,7 @@ impl Observer for Recorder {
             angular_momentum: f.angular_momentum,
             violation: f.violation.to_vec(),
             velocity_violation: f.velocity_violation.to_vec(),
+            beams: f.state.beams.clone(),
         });
     }
 }

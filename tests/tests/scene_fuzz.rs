@@ -1033,16 +1033,29 @@ fn mutate_scene(s: &mut Scene, m: &Mutation) {
 // ---------------------------------------------------------------------------------------
 // Checks.
 
+/// Whether `name` is a part of one of the scene's beams (`BEAM.node[k]`, `BEAM.clamp[k]`).
+fn of_beam(scene: &Scene, name: &str) -> bool {
+    scene.beams.iter().any(|b| {
+        name.strip_prefix(b.name.as_str()).is_some_and(|rest| {
+            rest.starts_with(".node[") || rest.starts_with(".clamp[") || rest.starts_with(".pin[")
+        })
+    })
+}
+
 /// Whether `e` names an item of `scene` of the kind it says.
 fn names_an_item(scene: &Scene, e: &InterpError) -> bool {
     match e {
-        InterpError::Beam(n) => scene.beams.iter().any(|b| &b.name == n),
+        InterpError::Beam { name, reason } => {
+            !reason.is_empty() && scene.beams.iter().any(|b| &b.name == name)
+        }
         InterpError::Mesh(n) => scene.meshes.iter().any(|m| &m.name == n),
         InterpError::Invalid { item, name, reason } => {
             !reason.is_empty()
                 && match *item {
-                    "body" => scene.bodies.iter().any(|b| &b.name == name),
-                    "joint" => scene.joints.iter().any(|j| &j.name == name),
+                    // a beam's nodes are bodies `BEAM.node[k]`, its attachments joints
+                    // `BEAM.clamp[k]` / `BEAM.pin[k]`
+                    "body" => scene.bodies.iter().any(|b| &b.name == name) || of_beam(scene, name),
+                    "joint" => scene.joints.iter().any(|j| &j.name == name) || of_beam(scene, name),
                     "force" => scene.forces.iter().any(|f| &f.name == name),
                     "contact" => scene.contacts.iter().any(|c| &c.name == name),
                     "simulate" | "scene" => &scene.name == name,

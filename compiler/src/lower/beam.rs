@@ -34,6 +34,8 @@ const BEAM_KEYS: &[Key] = &[
     one("up"),
     one("material"),
     one("shape"),
+    one("damping"),
+    one("rotary_inertia_scale"),
     Key {
         name: "clamp",
         min: 1,
@@ -310,7 +312,34 @@ impl<'a> Lowerer<'a> {
             .value("up")
             .map(|e| (self.axis(e, sc, "an up direction"), e.span));
         let section = self.beam_section(&props, sc, &what, d);
+        let damping = match props.value("damping") {
+            Some(e) => self.nonneg(e, sc, Dim::TIME, "a beam's damping coefficient"),
+            None => Ok(0.0),
+        };
+        let rotary_inertia_scale = match props.value("rotary_inertia_scale") {
+            Some(e) => self
+                .positive(e, sc, Dim::NONE, "a rotary-inertia scale")
+                .and_then(|v| {
+                    if v < 1.0 {
+                        Err(self.report(
+                            Diagnostic::error(
+                                codes::INVALID_VALUE,
+                                format!(
+                                    "a rotary-inertia scale below 1 ({}) would raise the beam's highest frequency and lower its step limit",
+                                    num(v)
+                                ),
+                            )
+                            .primary(sc.file, e.span, "below 1")
+                            .help("give a factor of 1 or more (1: the section's own rotary inertia)"),
+                        ))
+                    } else {
+                        Ok(v)
+                    }
+                }),
+            None => Ok(1.0),
+        };
         let (pts, (elements, espan), section) = (pts?, elements?, section?);
+        let (damping, rotary_inertia_scale) = (damping?, rotary_inertia_scale?);
         // Subdivide.
         let lengths: Vec<f64> = pts
             .windows(2)
@@ -448,6 +477,8 @@ impl<'a> Lowerer<'a> {
             up: geom::a(&up),
             section,
             attachments,
+            damping,
+            rotary_inertia_scale,
             origin: Sources::origin(sc.file, d.span),
         })
     }

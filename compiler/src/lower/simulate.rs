@@ -3,7 +3,7 @@
 use mbdc_dsl::ast::{Expr, ItemKind};
 use mbdc_runtime::scene::{
     BodyReference, Factorization, Fn1, Gyroscopic, LintForm, MethodSpec, OutputSpec, Reference,
-    Simulate, StaggeredOptions,
+    Relaxation, Simulate, StaggeredOptions,
 };
 
 use super::body::num;
@@ -35,6 +35,7 @@ pub(crate) fn method_options(name: &str) -> &'static [&'static str] {
             "lint",
             "gyroscopic",
             "factorization",
+            "relaxation",
         ],
         "baumgarte" => &["alpha", "beta"],
         "penalty" => &["epsilon"],
@@ -360,6 +361,14 @@ impl<'a> Lowerer<'a> {
                         ("synchronous", Gyroscopic::Synchronous),
                         ("lagged", Gyroscopic::Lagged),
                     ],
+                )?
+            }
+            (MethodSpec::Staggered(o), "relaxation") => {
+                o.relaxation = self.keyword(
+                    v,
+                    sc,
+                    "relaxation",
+                    &[("none", Relaxation::None), ("kinetic", Relaxation::Kinetic)],
                 )?
             }
             (MethodSpec::Staggered(o), "factorization") => {

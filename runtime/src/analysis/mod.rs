@@ -2,6 +2,8 @@
 //!
 //! - [`topology`]: the joint graph — spanning tree, cut joints, branches, levels, degrees of
 //!   freedom, redundant joints (rank of the constraint Jacobian at t = 0).
+//! - [`beam_model`]: beams as bodies — nodes with their lumped inertia, clamps and pins as
+//!   joints, and the table of elements between them.
 //! - [`coordinates`]: the independent coordinates natural partitioning uses, per tree joint
 //!   (what `mbdc check --topology` prints).
 //! - [`effects`]: the effects a scene uses (gravity, springs, contact, closed loops, …): the
@@ -12,6 +14,7 @@
 //!
 //! Imports the contract, the kernels and linear algebra; knows no integrator and no writer.
 
+pub mod beam_model;
 pub mod coordinates;
 pub mod effects;
 pub mod input_limits;

@@ -18,6 +18,9 @@
 //!   point: a rolling ball's attachment is its centre, and √(|g|/d) of its mass-centre
 //!   offset would be a rate the ball does not have;
 //! - penalty contact: `ω = √(k/m)` of the lighter body;
+//! - flexible beams: the highest frequency of the beam's shortest element with its lumped
+//!   mass ([`beam_element_frequency`], an upper bound on the beam's), lowered by
+//!   stiffness-proportional damping to the equivalent `2/h_max`;
 //! - damping (springs' and contact's): the rate `c/m_eff`, whose explicit limit (lagged
 //!   evaluation, notes A §1.9) is `c h / m_eff < 2`, so it is reported as an equivalent ω.
 //!
@@ -36,6 +39,9 @@ pub struct Source {
     pub omega: f64,
     /// What it is, naming the element: `spring 'k'`, `spin of body 'rotor'`.
     pub what: String,
+    /// Whether it is a mode of a beam's discretization (its highest element mode): it limits
+    /// the explicit step, but is no motion of the scene to resolve with 20 steps per period.
+    pub discretization: bool,
 }
 
 /// The estimate for a scene.
@@ -56,9 +62,15 @@ impl Estimate {
         self.fastest().map_or(f64::INFINITY, |s| 2.0 / s.omega)
     }
 
-    /// Largest step with 20 steps per period of the fastest source: `2π/(20 ω_max)`.
+    /// The fastest source that is a motion of the scene (not a beam's discretization mode).
+    pub fn fastest_motion(&self) -> Option<&Source> {
+        self.sources.iter().find(|s| !s.discretization)
+    }
+
+    /// Largest step with 20 steps per period of the fastest motion: `2π/(20 ω_max)` (beams'
+    /// element modes excluded: they limit stability only).
     pub fn accurate_step(&self) -> f64 {
-        self.fastest()
+        self.fastest_motion()
             .map_or(f64::INFINITY, |s| std::f64::consts::TAU / (20.0 * s.omega))
     }
 }
@@ -107,6 +119,7 @@ pub fn estimate(scene: &Scene) -> Estimate {
             sources.push(Source {
                 omega: w,
                 what: format!("spin of body '{}'", b.name),
+                discretization: false,
             });
         }
     }
@@ -123,6 +136,7 @@ pub fn estimate(scene: &Scene) -> Estimate {
                             "swing of body '{}' under gravity, hinged {d:.3} m from its mass centre (joint '{}')",
                             scene.bodies[i].name, j.name
                         ),
+                        discretization: false,
                     });
                 }
             }
@@ -171,12 +185,14 @@ pub fn estimate(scene: &Scene) -> Estimate {
                     sources.push(Source {
                         omega: (stiffness * w).sqrt(),
                         what: format!("spring '{}'", f.name),
+                        discretization: false,
                     });
                 }
                 if *damping > 0.0 && w > 0.0 {
                     sources.push(Source {
                         omega: damping * w,
                         what: format!("damping of '{}' (rate c/m)", f.name),
+                        discretization: false,
                     });
                 }
             }
@@ -206,12 +222,14 @@ pub fn estimate(scene: &Scene) -> Estimate {
                     sources.push(Source {
                         omega: (stiffness * w).sqrt(),
                         what: format!("rotational spring '{}'", f.name),
+                        discretization: false,
                     });
                 }
                 if *damping > 0.0 && w > 0.0 {
                     sources.push(Source {
                         omega: damping * w,
                         what: format!("damping of '{}' (rate c/J)", f.name),
+                        discretization: false,
                     });
                 }
             }
@@ -228,23 +246,178 @@ pub fn estimate(scene: &Scene) -> Estimate {
             sources.push(Source {
                 omega: (c.stiffness * w).sqrt(),
                 what: format!("contact '{}'", c.name),
+                discretization: false,
             });
         }
         if c.damping > 0.0 && w > 0.0 {
             sources.push(Source {
                 omega: c.damping * w,
                 what: format!("damping of contact '{}'", c.name),
+                discretization: false,
             });
         }
     }
+    for beam in &scene.beams {
+        // the shortest element is the stiffest (the shear/rotary mode does not depend on ℓ,
+        // the axial and bending ones grow as ℓ shrinks)
+        let Some((e, l)) = beam
+            .nodes
+            .windows(2)
+            .map(|w| (vec3(&w[1]) - vec3(&w[0])).norm())
+            .enumerate()
+            .min_by(|a, b| a.1.total_cmp(&b.1))
+        else {
+            continue;
+        };
+        let Some(w) = beam_element_frequency(&beam.section, l, beam.rotary_inertia_scale) else {
+            continue;
+        };
+        // stiffness-proportional damping lowers the leapfrog's limit to
+        // h ≤ (2/ω)(√(1 + ξ²) − ξ), ξ = βω/2: reported as the equivalent 2/h
+        let xi = 0.5 * beam.damping * w;
+        let damped = w / ((1.0 + xi * xi).sqrt() - xi);
+        sources.push(Source {
+            omega: damped,
+            what: if xi > 0.0 {
+                format!(
+                    "beam '{}', element {e} (its highest mode, {w:.4e} rad/s, with damping {} s)",
+                    beam.name, beam.damping
+                )
+            } else {
+                format!("beam '{}', element {e} (its highest mode)", beam.name)
+            },
+            discretization: true,
+        });
+    }
     sources.sort_by(|a, b| b.omega.total_cmp(&a.omega));
     Estimate { sources }
+}
+
+/// The highest natural frequency (rad/s) of one free beam element of length `l` with its
+/// lumped mass (each node half the element's mass and `rotary_scale` times half its rotary
+/// inertia): the square root of the largest eigenvalue of `M⁻¹K`, with the element
+/// stiffness `K` the derivative of [`beam_element::internal_force`] at the unstrained
+/// straight element (by central differences). By the element eigenvalue inequality (Irons
+/// and Treharne) it bounds from above every frequency of a beam assembled from such
+/// elements, whatever its supports and attached bodies, so `2/ω` is a safe explicit step.
+/// Typically the shear/rotary-inertia mode `√(GA/ρI)` for short elements, the axial
+/// `2√(EA/ρA)/ℓ` for long ones. `None` for a section the kernel refuses.
+pub fn beam_element_frequency(
+    section: &crate::contract::scene::Section,
+    l: f64,
+    rotary_scale: f64,
+) -> Option<f64> {
+    use crate::contract::math::{axis_angle, qmul};
+    use crate::contract::system::{Pose, Twist};
+    use crate::kernels::beam_element::{
+        internal_force, lumped_mass, BeamNode, BeamSection, ElementForce, ElementState,
+    };
+    use nalgebra::{DMatrix, Quaternion};
+    let sec = BeamSection::from_scene(section).ok()?;
+    if !(l.is_finite() && l > 0.0) {
+        return None;
+    }
+    let reference = [
+        BeamNode {
+            pose: Pose::new(Vector3::zeros(), Quaternion::identity()),
+            twist: Twist::default(),
+        },
+        BeamNode {
+            pose: Pose::new(Vector3::new(l, 0.0, 0.0), Quaternion::identity()),
+            twist: Twist::default(),
+        },
+    ];
+    let state0 = ElementState::new(&reference).ok()?;
+    let mass = lumped_mass(&sec, l);
+    let m_diag: Vec<f64> = (0..12)
+        .map(|k| {
+            if k % 6 < 3 {
+                mass.m
+            } else {
+                mass.j[k % 3] * rotary_scale
+            }
+        })
+        .collect();
+    // generalized forces (f world, t body) of both nodes after displacing dof k by d
+    let forces = |k: usize, d: f64| -> Option<[f64; 12]> {
+        let mut nodes = reference;
+        let (n, c) = (k / 6, k % 6);
+        if c < 3 {
+            nodes[n].pose.r[c] += d;
+        } else {
+            let q = qmul(&nodes[n].pose.q, &axis_angle(&Vector3::ith(c - 3, 1.0), d));
+            nodes[n].pose.set_q(q);
+        }
+        let mut st = state0;
+        let mut out = ElementForce::default();
+        internal_force(&sec, &mut st, &nodes, &mut out).ok()?;
+        let mut f = [0.0; 12];
+        for i in 0..2 {
+            for c in 0..3 {
+                f[6 * i + c] = out.wrench[i].f[c];
+                f[6 * i + 3 + c] = out.wrench[i].t[c];
+            }
+        }
+        Some(f)
+    };
+    let mut a = DMatrix::<f64>::zeros(12, 12);
+    for k in 0..12 {
+        let d = if k % 6 < 3 { 1e-6 * l } else { 1e-6 };
+        let (fp, fm) = (forces(k, d)?, forces(k, -d)?);
+        for i in 0..12 {
+            // K = −∂F/∂z, scaled: M^{-1/2} K M^{-1/2}
+            a[(i, k)] = -(fp[i] - fm[i]) / (2.0 * d) / (m_diag[i] * m_diag[k]).sqrt();
+        }
+    }
+    let sym = (&a + a.transpose()) * 0.5;
+    let lmax = sym.symmetric_eigenvalues().max();
+    (lmax.is_finite() && lmax > 0.0).then(|| lmax.sqrt())
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::contract::scene::*;
+
+    /// The free element's modes in closed form (notes B one-point element, lumped mass):
+    /// axial `ω² = 4EA/(ρAℓ²)`; torsion `4GJ/(ρI₁ℓ²)`; per bending plane, the antisymmetric
+    /// rotation `4EI/(ρI ℓ²)` and the shear/rotary mode `GA(4/(ρAℓ²) + 1/ρI)`.
+    #[test]
+    fn beam_element_frequency_is_the_free_elements_highest_mode() {
+        let sec = Section {
+            ea: 2.0e6,
+            ga2: 8.0e5,
+            ga3: 6.0e5,
+            ei2: 50.0,
+            ei3: 80.0,
+            gj: 40.0,
+            rho_a: 2.0,
+            rho_i: 3.0e-4,
+        };
+        for (l, scale) in [(0.05, 1.0), (0.5, 1.0), (0.05, 100.0), (2.0, 10.0)] {
+            let ri = [
+                sec.rho_i,
+                sec.rho_a * sec.ei2 / sec.ea,
+                sec.rho_a * sec.ei3 / sec.ea,
+            ];
+            let ri: Vec<f64> = ri.iter().map(|r| r * scale).collect();
+            let modes = [
+                4.0 * sec.ea / (sec.rho_a * l * l),
+                4.0 * sec.gj / (ri[0] * l * l),
+                4.0 * sec.ei2 / (ri[1] * l * l),
+                4.0 * sec.ei3 / (ri[2] * l * l),
+                // shear along axis 3 pairs with rotation about axis 2, and vice versa
+                sec.ga3 * (4.0 / (sec.rho_a * l * l) + 1.0 / ri[1]),
+                sec.ga2 * (4.0 / (sec.rho_a * l * l) + 1.0 / ri[2]),
+            ];
+            let exact = modes.iter().cloned().fold(0.0, f64::max).sqrt();
+            let w = beam_element_frequency(&sec, l, scale).unwrap();
+            assert!(
+                (w / exact - 1.0).abs() < 1e-5,
+                "l {l} scale {scale}: {w} vs {exact}"
+            );
+        }
+    }
 
     fn body(name: &str, m: f64, j: f64, w: [f64; 3]) -> Body {
         Body {

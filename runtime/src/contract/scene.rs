@@ -442,8 +442,20 @@ pub struct Beam {
     pub section: Section,
     /// Attachments of beam nodes to bodies (or ground).
     pub attachments: Vec<BeamAttachment>,
+    /// Stiffness-proportional damping coefficient β, s (0: undamped): the section resultants
+    /// get `β` times the stiffness times the strain rate.
+    #[serde(default)]
+    pub damping: f64,
+    /// Factor on the nodes' rotary inertia (≥ 1; 1: the section's own). Raising it lowers the
+    /// beam's shear/rotary-inertia frequencies, and so raises its explicit step limit.
+    #[serde(default = "one")]
+    pub rotary_inertia_scale: f64,
     /// Source location.
     pub origin: Origin,
+}
+
+fn one() -> f64 {
+    1.0
 }
 
 /// How a beam node is attached.
@@ -710,6 +722,21 @@ pub struct StaggeredOptions {
     /// Which factorization of the iteration matrix `E + h²BM⁻¹Bᵀ` the method uses.
     #[serde(default)]
     pub factorization: Factorization,
+    /// Dynamic relaxation: march to a static equilibrium instead of following the motion.
+    #[serde(default)]
+    pub relaxation: Relaxation,
+}
+
+/// Dynamic relaxation for static solutions (see docs/methods.md, "Beams").
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Relaxation {
+    /// Follow the motion (a dynamic run).
+    #[default]
+    None,
+    /// Kinetic damping (Cundall): every time the total kinetic energy passes a peak, all
+    /// velocities are set to zero. The run then converges to a static equilibrium under the
+    /// loads at the end time; its intermediate frames are not a motion.
+    Kinetic,
 }
 
 /// The factorization of the staggered method's iteration matrix `E + h²BM⁻¹Bᵀ` (one row per
@@ -763,6 +790,7 @@ impl Default for StaggeredOptions {
             lint: LintForm::Exact,
             gyroscopic: Gyroscopic::Midpoint,
             factorization: Factorization::Auto,
+            relaxation: Relaxation::None,
         }
     }
 }

@@ -153,6 +153,56 @@ pub struct Layout {
     pub row_joint: Vec<usize>,
     /// Per row: holonomic or nonholonomic.
     pub row_kind: Vec<RowKind>,
+    /// The flexible beams whose nodes are among the bodies (empty for a rigid scene).
+    pub beams: BeamLayout,
+}
+
+/// The flexible beams of a system (notes B). Each beam node is one of the layout's bodies,
+/// carrying its lumped share of the elements' mass and rotary inertia; what the integrator
+/// adds is the elements' internal forces between consecutive nodes. Built once from a
+/// scene by [`crate::analysis::beam_model`].
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct BeamLayout {
+    /// The beams, in scene order.
+    pub beams: Vec<BeamInfo>,
+    /// The elements of every beam, beam after beam, each beam's from its start.
+    pub elements: Vec<BeamElementLayout>,
+}
+
+impl BeamLayout {
+    /// Whether the system has no beam.
+    pub fn is_empty(&self) -> bool {
+        self.beams.is_empty()
+    }
+}
+
+/// One beam of a [`BeamLayout`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct BeamInfo {
+    /// The beam's name.
+    pub name: String,
+    /// Its first element in [`BeamLayout::elements`].
+    pub first_element: usize,
+    /// Its number of elements (its nodes are one more).
+    pub elements: usize,
+    /// The body index of its first node; node `k` is body `first_body + k`.
+    pub first_body: usize,
+    /// Section properties (with the material), as the scene gives them.
+    pub section: crate::contract::scene::Section,
+    /// Stiffness-proportional damping coefficient β (s): damping resultants
+    /// `β·diag(EA, GA₂, GA₃)·γ̇` and `β·diag(GJ, EI₂, EI₃)·κ̇`; 0 for none.
+    pub damping: f64,
+    /// Factor applied to the nodes' rotary inertia (1: the section's own).
+    pub rotary_inertia_scale: f64,
+}
+
+/// One element of a [`BeamLayout`]: the beam it belongs to and its two node bodies.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct BeamElementLayout {
+    /// Index into [`BeamLayout::beams`].
+    pub beam: usize,
+    /// Body indices of its nodes (start, end).
+    pub nodes: [usize; 2],
 }
 
 impl Layout {

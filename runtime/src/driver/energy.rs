@@ -62,6 +62,7 @@ mod tests {
             rows: 0,
             row_joint: vec![],
             row_kind: vec![],
+            beams: Default::default(),
         }
     }
 

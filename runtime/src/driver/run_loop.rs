@@ -93,7 +93,7 @@ pub struct Frame<'a> {
     pub state: &'a State,
     /// Kinetic energy, J.
     pub kinetic: f64,
-    /// Potential energy, J.
+    /// Potential energy, J: gravity and springs, plus the strain energy of the beams.
     pub potential: f64,
     /// Linear momentum, world.
     pub momentum: [f64; 3],
@@ -225,7 +225,7 @@ struct EnergyWatch {
 impl EnergyWatch {
     fn new<S: System>(sys: &S, st: &State) -> EnergyWatch {
         let kinetic = energy::kinetic_energy(sys.layout(), &st.twist);
-        let potential = sys.potential_energy(st.t, &st.pose);
+        let potential = sys.potential_energy(st.t, &st.pose) + st.strain_energy();
         EnergyWatch {
             e0: kinetic + potential,
             in_play: kinetic,
@@ -239,7 +239,7 @@ impl EnergyWatch {
     /// Take the energies of `st` into the ranges.
     fn observe<S: System>(&mut self, sys: &S, st: &State) {
         self.kinetic = energy::kinetic_energy(sys.layout(), &st.twist);
-        self.potential = sys.potential_energy(st.t, &st.pose);
+        self.potential = sys.potential_energy(st.t, &st.pose) + st.strain_energy();
         self.pe_lo = self.pe_lo.min(self.potential);
         self.pe_hi = self.pe_hi.max(self.potential);
         self.in_play = self.in_play.max(self.kinetic);
@@ -337,6 +337,9 @@ pub fn run<S: System>(sys: &S, cfg: &RunConfig, obs: &mut dyn Observer) -> RunRe
             let failure = match result {
                 Err(e) => Some(step_failure(sys, &e, integ.time(), report.steps, h)),
                 Ok(_) => {
+                    if let Some(m) = integ.take_notice() {
+                        obs.notice(&m);
+                    }
                     integ.state(sys, &mut st);
                     st.active.copy_from_slice(integ.active());
                     nonfinite(sys, &st, report.steps, h)
@@ -540,6 +543,7 @@ fn step_failure<S: System>(sys: &S, e: &StepError, t: f64, step: u64, h: f64) ->
         {
             format!("joint '{}'", layout.joints[layout.row_joint[*row]].name)
         }
+        StepError::Beam { beam, element, .. } => format!("beam '{beam}', element {element}"),
         _ => "system".into(),
     };
     let (quantity, value, cause, hint) = match e {
@@ -554,6 +558,12 @@ fn step_failure<S: System>(sys: &S, e: &StepError, t: f64, step: u64, h: f64) ->
             f64::NAN,
             format!("{e}"),
             "the matrix has non-finite entries: the state diverged before this step; reduce the step".to_string(),
+        ),
+        StepError::Beam { .. } => (
+            "beam element".to_string(),
+            f64::NAN,
+            format!("{e}"),
+            format!("an element folded or turned by half a revolution in one step: reduce the step (now {h:.3e} s), add elements, or check the loads"),
         ),
         StepError::NoConvergence {
             what,
@@ -589,6 +599,8 @@ struct ToWriter<'a> {
     writer: crate::driver::output::OutputWriter,
     inner: &'a mut dyn Observer,
     error: Option<crate::driver::output::OutputError>,
+    /// Per beam element: whether it is its beam's first (the arc length restarts).
+    first_element: Vec<bool>,
 }
 
 impl Observer for ToWriter<'_> {
@@ -608,6 +620,21 @@ impl Observer for ToWriter<'_> {
         out.violation.copy_from_slice(f.violation);
         out.velocity_violation.copy_from_slice(f.velocity_violation);
         out.lambda.copy_from_slice(&f.state.lambda);
+        // beams: the arc length of each element's midpoint, then its resultants and strains
+        let mut arc = 0.0;
+        for (e, (row, st)) in out.sections.iter_mut().zip(&f.state.beams).enumerate() {
+            if self.first_element.get(e).copied().unwrap_or(false) {
+                arc = 0.0;
+            }
+            row[0] = arc + 0.5 * st.l0;
+            arc += st.l0;
+            for k in 0..3 {
+                row[1 + k] = st.n[k];
+                row[4 + k] = st.m[k];
+                row[7 + k] = st.gamma[k];
+                row[10 + k] = st.kappa[k];
+            }
+        }
         if let Err(e) = self.writer.submit(out) {
             self.error = Some(e);
         }
@@ -634,10 +661,15 @@ pub fn run_to_dir<S: System>(
 ) -> Result<(RunReport, crate::driver::output::Summary), crate::driver::output::OutputError> {
     let writer =
         crate::driver::output::OutputWriter::create(dir, sys.layout(), spec, meta.clone())?;
+    let mut first_element = vec![false; sys.layout().beams.elements.len()];
+    for b in &sys.layout().beams.beams {
+        first_element[b.first_element] = true;
+    }
     let mut obs = ToWriter {
         writer,
         inner: progress,
         error: None,
+        first_element,
     };
     let t0 = std::time::Instant::now();
     let report = run(sys, cfg, &mut obs);

@@ -14,6 +14,7 @@
 // Numerical kernels index several parallel arrays (rows, bodies) with one counter.
 #![allow(clippy::needless_range_loop)]
 
+pub mod beam_forces;
 pub mod common;
 pub mod natural;
 pub mod partitioning;
@@ -37,6 +38,16 @@ pub struct State {
     pub lambda: Vec<f64>,
     /// Which rows are enforced (locks engage during a run).
     pub active: Vec<bool>,
+    /// The flexible beams' element states at these positions (empty without beams, and in
+    /// a state not produced by an integrator: the elements then start stress-free).
+    pub beams: Vec<crate::kernels::beam_element::ElementState>,
+}
+
+impl State {
+    /// The elastic strain energy of the beams in this state (J; 0 without beams).
+    pub fn strain_energy(&self) -> f64 {
+        beam_forces::total_strain_energy(&self.beams)
+    }
 }
 
 impl State {
@@ -48,6 +59,7 @@ impl State {
             twist: vec![Twist::default(); bodies],
             lambda: vec![0.0; rows],
             active: vec![true; rows],
+            beams: Vec::new(),
         }
     }
 
@@ -107,6 +119,29 @@ pub fn make<'a, S: System + 'a>(
             )));
         }
     }
+    if let Some(b) = sys.layout().beams.beams.first() {
+        let two_sequences = matches!(method, M::Staggered(o)
+            if !o.single_stage && o.gyroscopic == crate::contract::scene::Gyroscopic::Synchronous);
+        if !matches!(
+            method,
+            M::Staggered(_) | M::Baumgarte { .. } | M::Penalty { .. }
+        ) {
+            return Err(StartError::Invalid(format!(
+                "beam '{}': {} does not simulate flexible beams; beams are advanced by the explicit coordinate integrator of staggered (the default), baumgarte and penalty",
+                b.name,
+                method.name()
+            )));
+        }
+        if let Some(msg) = beam_step_limit(sys.layout(), start, h) {
+            return Err(StartError::Invalid(msg));
+        }
+        if two_sequences {
+            return Err(StartError::Invalid(format!(
+                "beam '{}': staggered with the paper's two leapfrog sequences (`gyroscopic synchronous`) does not simulate flexible beams; use the defaults",
+                b.name
+            )));
+        }
+    }
     Ok(match method {
         M::Staggered(o) => Box::new(staggered::TwoStage::staggered(sys, h, o, start)?),
         M::Baumgarte { alpha, beta } => Box::new(staggered::TwoStage::baumgarte(
@@ -134,6 +169,37 @@ pub fn make<'a, S: System + 'a>(
         ),
         M::StateTime { .. } => return Err(StartError::Unsupported(method.name())),
     })
+}
+
+/// The refusal of a step above a beam's explicit limit, if any: per beam, the highest mode
+/// of its shortest element ([`crate::analysis::step_limits::beam_element_frequency`], an upper
+/// bound on the beam's), lowered by its damping; the leapfrog is unstable above `2/ω`.
+fn beam_step_limit(
+    layout: &crate::contract::system::Layout,
+    start: &State,
+    h: f64,
+) -> Option<String> {
+    use crate::analysis::step_limits::beam_element_frequency;
+    for b in &layout.beams.beams {
+        let node = |k: usize| start.pose.get(b.first_body + k).map(|p| p.r);
+        let Some((e, l)) = (0..b.elements)
+            .filter_map(|e| Some((e, (node(e + 1)? - node(e)?).norm())))
+            .min_by(|x, y| x.1.total_cmp(&y.1))
+        else {
+            continue;
+        };
+        let w = beam_element_frequency(&b.section, l, b.rotary_inertia_scale)?;
+        let xi = 0.5 * b.damping * w;
+        let limit = (2.0 / w) * ((1.0 + xi * xi).sqrt() - xi);
+        if h > limit {
+            return Some(format!(
+                "beam '{}', element {e}: the step {h:.3e} s is above the explicit limit {limit:.3e} s of the beam's highest mode ({w:.4e} rad/s{}); reduce the step, or raise the beam's `rotary_inertia_scale` (it lowers the shear/rotary-inertia mode; see docs/methods.md)",
+                b.name,
+                if xi > 0.0 { ", with its damping" } else { "" }
+            ));
+        }
+    }
+    None
 }
 
 /// Why an integrator could not start.
@@ -170,6 +236,17 @@ pub enum StepError {
         /// Which system.
         what: &'static str,
         /// The solver's message.
+        message: String,
+    },
+    /// A beam element could not be evaluated (a zero-length or folded element, a section
+    /// turned by half a revolution in one step).
+    #[error("beam '{beam}', element {element}: {message}")]
+    Beam {
+        /// The beam's name.
+        beam: String,
+        /// The element's index within its beam (0 at the start).
+        element: usize,
+        /// What went wrong.
         message: String,
     },
     /// An iteration did not converge.
@@ -220,5 +297,10 @@ pub trait Integrator<S: System> {
     /// Method statistics for the run summary (name, value).
     fn stats(&self) -> Vec<(&'static str, f64)> {
         Vec::new()
+    }
+    /// A warning raised by the last step, for the user (once per kind and run); the driver
+    /// polls it after every step.
+    fn take_notice(&mut self) -> Option<String> {
+        None
     }
 }

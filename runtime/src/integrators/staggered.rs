@@ -84,10 +84,11 @@
 //! λ⁰ is the consistent index-1 multiplier (`K λ = B M⁻¹ Q̄ − γ`). Sequence B starts with
 //! velocities `u̇⁰ − (h/2)u̇'⁰`, sequence A with positions at h/2 from a second-order Taylor step.
 
+use super::beam_forces::BeamForces;
 use super::common::{self, accel, b_minv, b_times, bt_lambda, qbar, Index1};
 use super::{Integrator, StartError, State, StepError, StepInfo};
 use crate::contract::math::cayley_update;
-use crate::contract::scene::{Factorization, Gyroscopic, LintForm, StaggeredOptions};
+use crate::contract::scene::{Factorization, Gyroscopic, LintForm, Relaxation, StaggeredOptions};
 use crate::contract::system::{ConstraintEval, Need, Pose, RowKind, System, Twist, Wrench};
 use crate::linalg::{Backend, Definiteness, KSolver, KSolverOptions, LinalgError};
 
@@ -168,6 +169,16 @@ pub struct TwoStage {
     lints: u64,
     max_iterations: u32,
     min_pivot_ratio: f64,
+    /// The flexible beams' internal forces (`None` without beams).
+    beams: Option<BeamForces>,
+    /// Dynamic relaxation by kinetic damping.
+    relax: bool,
+    /// Kinetic energy of the previous step's velocities (relaxation).
+    ke_prev: f64,
+    /// Velocity resets made by the relaxation.
+    relax_resets: u64,
+    /// Relaxation: the positions at the start of the step.
+    relax_pose: Vec<Pose>,
 }
 
 const MAX_NEWTON: u32 = 25;
@@ -195,7 +206,7 @@ impl TwoStage {
             Factorization::Dense => Backend::Dense,
             Factorization::Sparse => Backend::Sparse,
         };
-        TwoStage::new(
+        let mut s = TwoStage::new(
             sys,
             h,
             law,
@@ -204,7 +215,18 @@ impl TwoStage {
             opts.paper_literal,
             backend,
             start,
-        )
+        )?;
+        s.relax = opts.relaxation == Relaxation::Kinetic;
+        if s.relax {
+            s.relax_pose = s.seq[0].pose.clone();
+        }
+        if s.relax && !s.one_sequence {
+            return Err(StartError::Invalid(
+                "`relaxation kinetic` needs one leapfrog sequence: drop `gyroscopic synchronous`"
+                    .into(),
+            ));
+        }
+        Ok(s)
     }
 
     /// Baumgarte's stabilization on the same coordinate integrator.
@@ -267,6 +289,10 @@ impl TwoStage {
         sys.constraints(t0, &pose, &vel, Need::ALL, &mut ce);
         let mut applied = vec![Wrench::default(); nb];
         sys.applied(t0, &pose, &vel, &mut applied);
+        let beams = BeamForces::new(layout, start)?;
+        if let Some(b) = &beams {
+            b.add_to(&mut applied);
+        }
         let mut q0 = vec![Wrench::default(); nb];
         qbar(layout, &applied, &vel, &mut q0);
         let mut lambda = vec![0.0; m];
@@ -434,6 +460,11 @@ impl TwoStage {
             lints: 0,
             max_iterations: 0,
             min_pivot_ratio: f64::INFINITY,
+            beams,
+            relax: false,
+            ke_prev: 0.0,
+            relax_resets: 0,
+            relax_pose: Vec::new(),
         };
         s.lambda_prev.copy_from_slice(&s.lambda);
         Ok(s)
@@ -459,6 +490,9 @@ impl TwoStage {
         let layout = sys.layout();
         let (px, vx, vy) = (&self.seq[x].pose, &self.seq[x].vel, &self.seq[y].vel);
         sys.applied(self.tau, px, vx, &mut self.applied);
+        if let Some(b) = &self.beams {
+            b.add_to(&mut self.applied);
+        }
         if self.midpoint_gyro {
             self.qbar.copy_from_slice(&self.applied);
         } else {
@@ -937,6 +971,26 @@ fn cint_body(
     )
 }
 
+/// The mass inner product `Σ m a·b + a_ωᵀ J b_ω` of two sets of velocities.
+fn mass_dot(layout: &crate::contract::system::Layout, a: &[Twist], b: &[Twist]) -> f64 {
+    layout
+        .mass
+        .iter()
+        .zip(a.iter().zip(b))
+        .map(|(m, (a, b))| m.m * a.v.dot(&b.v) + a.w.dot(&(m.j * b.w)))
+        .sum()
+}
+
+/// Kinetic energy `Σ ½ m|v|² + ½ ωᵀJω` of a set of velocities.
+fn kinetic(layout: &crate::contract::system::Layout, vel: &[Twist]) -> f64 {
+    layout
+        .mass
+        .iter()
+        .zip(vel)
+        .map(|(m, t)| 0.5 * (m.m * t.v.norm_squared() + t.w.dot(&(m.j * t.w))))
+        .sum()
+}
+
 /// The velocity half a step ahead of `v1` by second-order extrapolation from the velocity
 /// `v0` one step before it: `1.5 v₁ − 0.5 v₀` (the sequence's velocities lag by h/2).
 fn half_ahead(v1: &Twist, v0: &Twist) -> Twist {
@@ -1001,6 +1055,9 @@ impl<S: System> Integrator<S> for TwoStage {
                 }
             }
             self.vel_prev.copy_from_slice(&self.seq[0].vel);
+            if self.relax {
+                self.relax_pose.copy_from_slice(&self.seq[0].pose);
+            }
             iterations += self.advance(sys, 0, 0)?;
             self.half_steps += 2;
             self.tau = self.t0 + self.half_steps as f64 * self.h / 2.0;
@@ -1012,6 +1069,33 @@ impl<S: System> Integrator<S> for TwoStage {
                 self.tau = self.t0 + self.half_steps as f64 * self.h / 2.0;
                 self.x = 1 - x;
             }
+        }
+        if self.relax {
+            // Kinetic damping: when the kinetic energy has passed a peak during this step,
+            // go back to the positions at its start (nearer the peak, where the potential
+            // energy is lowest) and stop every body. The leapfrog conserves
+            // `u̇ᵀMu̇ + …` only up to the cross term `u̇⁻ᵀ M u̇⁺` of the two half-step
+            // velocities, which is what a reset removes: reset only when it is positive (the
+            // velocities did not reverse within the step), so a reset never adds energy.
+            // Zeroing at the end positions instead pumps the modes with h·ω near 1.
+            let layout = sys.layout();
+            let ke = kinetic(layout, &self.seq[0].vel);
+            let cross = mass_dot(layout, &self.vel_prev, &self.seq[0].vel);
+            if ke < self.ke_prev && cross > 0.0 {
+                self.seq[0].pose.copy_from_slice(&self.relax_pose);
+                for v in self.seq[0].vel.iter_mut().chain(self.vel_prev.iter_mut()) {
+                    *v = Twist::default();
+                }
+                self.relax_resets += 1;
+                self.ke_prev = 0.0;
+            } else {
+                self.ke_prev = ke;
+            }
+        }
+        if let Some(b) = &mut self.beams {
+            // the elements at the new positions; their forces act in the next kick
+            let v = if self.one_sequence { 0 } else { 1 - self.x };
+            b.update(&self.seq[self.x].pose, &self.seq[v].vel)?;
         }
         self.check_locks(sys);
         Ok(StepInfo { iterations })
@@ -1048,6 +1132,13 @@ impl<S: System> Integrator<S> for TwoStage {
             }
         } else {
             out.twist.copy_from_slice(&self.seq[1 - self.x].vel);
+        }
+        match &self.beams {
+            Some(b) => {
+                out.beams.clear();
+                out.beams.extend_from_slice(b.states());
+            }
+            None => out.beams.clear(),
         }
         // λ was last computed at tau_lambda (h/2 or h before t): extrapolate linearly.
         let dt = self.tau - self.tau_lambda;
@@ -1087,7 +1178,18 @@ impl<S: System> Integrator<S> for TwoStage {
             v.push(("regularized_steps", self.regularized_steps as f64));
         }
         v.push(("min_pivot_ratio", self.min_pivot_ratio));
+        if self.relax {
+            v.push(("relaxation_resets", self.relax_resets as f64));
+        }
+        if let Some(b) = &self.beams {
+            v.push(("beam_large_rotation_steps", b.large_rotation_steps() as f64));
+        }
         v
+    }
+
+    fn take_notice(&mut self) -> Option<String> {
+        let t = self.tau;
+        self.beams.as_mut()?.take_notice(t)
     }
 }
 

@@ -36,6 +36,7 @@ impl RodPendulum {
             rows: 3,
             row_joint: vec![0; 3],
             row_kind: vec![RowKind::Holonomic; 3],
+            beams: Default::default(),
         };
         RodPendulum {
             layout,

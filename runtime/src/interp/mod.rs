@@ -26,18 +26,21 @@
 //! `(θ − θ_lock)(θ₀ − θ_lock) ≤ 0` (θ₀ = 0 when the joint frames coincide initially).
 //! Locks never release.
 //!
-//! Not simulated (clear errors from [`Interp::new`]): flexible beams and finite-element
-//! meshes (not part of the rigid-body runtime yet), box–box, sphere–box and plane–plane
+//! Flexible beams: their nodes are bodies and their clamps and pins joints
+//! ([`crate::analysis::beam_model`]); the element forces are the integrator's.
+//!
+//! Not simulated (clear errors from [`Interp::new`]): finite-element meshes (not part of
+//! the runtime yet), box–box, sphere–box and plane–plane
 //! contact, bodies with singular or indefinite inertia.
 
-use crate::analysis::input_limits;
+use crate::analysis::{beam_model, input_limits};
 use crate::contract::math::{quat, rotation, vec3};
 use crate::contract::scene::{
     Attachment, BodyRef, Fn1, ForceFrame, ForceKind, JointKind, Scene, Shape,
 };
 use crate::contract::system::{
-    ConstraintEval, JointKernel, JointLayout, Layout, MassProps, Need, Pose, RowKind, System,
-    Twist, Wrench,
+    BeamLayout, ConstraintEval, JointKernel, JointLayout, Layout, MassProps, Need, Pose, RowKind,
+    System, Twist, Wrench,
 };
 use crate::kernels::contact::{
     self, BoxPlane, ContactLaw, SpherePlane, SphereSphere, FRICTION_REG_SPEED,
@@ -50,9 +53,14 @@ use nalgebra::{Matrix3, Vector3};
 /// Why a scene cannot be interpreted. Every variant names the offending item.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum InterpError {
-    /// The scene has a flexible beam.
-    #[error("beam '{0}': flexible beams are not simulated by the rigid-body runtime yet")]
-    Beam(String),
+    /// A flexible beam cannot be made into bodies and elements.
+    #[error("beam '{name}': {reason}")]
+    Beam {
+        /// The beam's name.
+        name: String,
+        /// What is wrong.
+        reason: String,
+    },
     /// The scene has a finite-element mesh.
     #[error("mesh '{0}': finite-element meshes are not simulated by the rigid-body runtime yet")]
     Mesh(String),
@@ -337,13 +345,26 @@ fn check_scene(scene: &Scene) -> Result<(), InterpError> {
 
 impl Interp {
     /// Build the interpreter for `scene` (see the module doc for what is checked).
+    ///
+    /// Beams are first made bodies and joints ([`beam_model::expand`]): their nodes follow
+    /// the scene's bodies, their clamps and pins its joints, and the [`Layout`]'s `beams`
+    /// lists the elements, whose forces the integrator adds.
     pub fn new(scene: &Scene) -> Result<Interp, InterpError> {
-        if let Some(b) = scene.beams.first() {
-            return Err(InterpError::Beam(b.name.clone()));
-        }
         if let Some(m) = scene.meshes.first() {
             return Err(InterpError::Mesh(m.name.clone()));
         }
+        if scene.beams.is_empty() {
+            return Interp::build(scene, BeamLayout::default());
+        }
+        let ex = beam_model::expand(scene).map_err(|e| InterpError::Beam {
+            name: e.beam,
+            reason: e.reason,
+        })?;
+        Interp::build(&ex.scene, ex.beams)
+    }
+
+    /// [`Interp::new`] for a scene without beams, with the beams' layout to record.
+    fn build(scene: &Scene, beams: BeamLayout) -> Result<Interp, InterpError> {
         check_scene(scene)?;
         let nb = scene.bodies.len();
 
@@ -853,6 +874,7 @@ impl Interp {
             rows: row,
             row_joint,
             row_kind,
+            beams,
         };
         // `applied` depends on the state unless every term is a world-frame force at the
         // mass centre or a body-frame torque (gravity never does).

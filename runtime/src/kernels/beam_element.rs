@@ -385,26 +385,54 @@ pub fn internal_force(
     state.s_prev = s;
     state.x_prev = x;
 
-    // Forces on the nodes = −(ℓ Bᵀ{N; M}).
-    let f = t.transpose() * state.n; // TᵀN, world
-    let i1t_n = -e1.cross(&state.n); // ĩ₁ᵀ N
-    let shear = 0.5 * l * i1t_n;
-    out.wrench = [
-        Wrench {
-            f,
-            t: -(s[0] * (shear - state.m)),
-        },
-        Wrench {
-            f: -f,
-            t: -(s[1] * (shear + state.m)),
-        },
-    ];
+    out.wrench = nodal_wrenches(&t, l, &s, &state.n, &state.m);
     out.d_gamma = d_gamma;
     out.d_kappa = d_kappa;
     out.kappa_total = total_curvature(&nodes[0].pose.q, &nodes[1].pose.q, l);
     out.length = l;
     out.frame = t;
     Ok(())
+}
+
+/// The forces on an element's nodes from section resultants `N`, `M` (convected
+/// components) in the configuration with convected frame `t`, chord length `l` and
+/// section rotations `s` (`S_I = C_Iᵀ Tᵀ`, (5.5)): `−ℓ Bᵀ{N; M}`, i.e. the paper's
+/// `S₁ᵉ = −TᵀN`, `S₂ᵉ = TᵀN`, `S_Iᵇ = (ℓ/2) S_I ĩ₁ᵀ N ∓ S_I M`, negated (force world,
+/// moment body). Used by [`internal_force`] and for damping resultants.
+pub fn nodal_wrenches(
+    t: &Matrix3<f64>,
+    l: f64,
+    s: &[Matrix3<f64>; 2],
+    n: &Vector3<f64>,
+    m: &Vector3<f64>,
+) -> [Wrench; 2] {
+    let f = t.transpose() * n; // TᵀN, world
+    let shear = 0.5 * l * -Vector3::x().cross(n); // (ℓ/2) ĩ₁ᵀ N
+    [
+        Wrench {
+            f,
+            t: -(s[0] * (shear - m)),
+        },
+        Wrench {
+            f: -f,
+            t: -(s[1] * (shear + m)),
+        },
+    ]
+}
+
+/// `S_I = C_Iᵀ Tᵀ` (5.5) of both nodes: convected → body components.
+pub fn section_rotations(nodes: &[BeamNode; 2], t: &Matrix3<f64>) -> [Matrix3<f64>; 2] {
+    [
+        section_rotation(&nodes[0].pose.c, t),
+        section_rotation(&nodes[1].pose.c, t),
+    ]
+}
+
+/// The elastic strain energy stored in an element, `ℓ₀/2 (γ·N + κ·M)` (J): exact for the
+/// linear section law, whose resultants are `N = diag(EA, GA₂, GA₃) γ` and
+/// `M = diag(GJ, EI₂, EI₃) κ` of the accumulated strains.
+pub fn strain_energy(state: &ElementState) -> f64 {
+    0.5 * state.l0 * (state.gamma.dot(&state.n) + state.kappa.dot(&state.m))
 }
 
 /// The strain rates `{γ̇; κ̇} = Bᴱ ż` of the current configuration: the one-point strain

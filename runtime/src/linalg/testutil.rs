@@ -78,6 +78,7 @@ pub fn layout_from_joints(
         rows: first,
         row_joint,
         row_kind: vec![RowKind::Holonomic; first],
+        beams: Default::default(),
     }
 }
 

@@ -153,3 +153,41 @@ pub(crate) fn constraints_row(out: &mut String, layout: &Layout, f: &Frame) {
     }
     out.push('\n');
 }
+
+/// Per-element columns of `beams.csv` after `t, beam, element, s`: the section resultants
+/// (convected components: axial, shear 2, shear 3; torsion, bending 2, bending 3) and the
+/// strains conjugate to them.
+pub const BEAM_COLUMNS: [&str; 12] = [
+    "N1", "N2", "N3", "M1", "M2", "M3", "gamma1", "gamma2", "gamma3", "kappa1", "kappa2", "kappa3",
+];
+
+/// Header line of `beams.csv` (one row per element and frame).
+pub fn beams_header() -> String {
+    header(
+        ["t", "beam", "element", "s"]
+            .into_iter()
+            .chain(BEAM_COLUMNS)
+            .map(str::to_string),
+    )
+}
+
+/// Append the `beams.csv` rows of a frame: one per element (its [`Frame::sections`] entry:
+/// the arc length `s` of its midpoint from the beam's start, unstrained, then
+/// [`BEAM_COLUMNS`]).
+pub(crate) fn beams_rows(out: &mut String, layout: &Layout, f: &Frame) {
+    use std::fmt::Write as _;
+    let bl = &layout.beams;
+    for (e, el) in bl.elements.iter().enumerate() {
+        let b = &bl.beams[el.beam];
+        push_f64(out, f.t);
+        out.push(',');
+        push_field(out, &b.name);
+        out.push(',');
+        let _ = write!(out, "{}", e - b.first_element);
+        for x in &f.sections[e] {
+            out.push(',');
+            push_f64(out, *x);
+        }
+        out.push('\n');
+    }
+}

@@ -42,6 +42,7 @@
 //! | `bodies.csv` | `t`, then per body `<body>.x .y .z .qw .qx .qy .qz .vx .vy .vz .wx .wy .wz` (position and velocity world, quaternion body → world, angular velocity body components) |
 //! | `energy.csv` | `t, kinetic, potential, total, drift, px, py, pz, Lx, Ly, Lz` (momenta world, angular about the world origin) |
 //! | `constraints.csv` | `t`, then per joint `<joint>.violation`, `<joint>.velocity_violation` (joints with nonholonomic rows only), `<joint>.lambda0 …` (one per row) |
+//! | `beams.csv` | scenes with beams: one row per element and frame, `t, beam, element, s` (arc length of the element's midpoint, unstrained), section forces `N1 N2 N3` (axial, shear 2, shear 3; N), moments `M1 M2 M3` (torsion, bending 2, bending 3; N·m), strains `gamma1 gamma2 gamma3` and curvatures `kappa1 kappa2 kappa3` (1/m), all in the element's convected frame |
 //!
 //! Only the files the [`OutputSpec`] asks for are created.
 //!
@@ -68,7 +69,10 @@ use serde::{Deserialize, Serialize};
 use crate::contract::scene::OutputSpec;
 use crate::contract::system::{Layout, Pose, RowKind, Twist};
 
-pub use csv::{bodies_header, constraints_header, energy_header, BODY_COLUMNS, ENERGY_COLUMNS};
+pub use csv::{
+    beams_header, bodies_header, constraints_header, energy_header, BEAM_COLUMNS, BODY_COLUMNS,
+    ENERGY_COLUMNS,
+};
 
 /// One output frame: the state and the derived quantities at one time. Plain data,
 /// allocated by [`OutputWriter::create`] and recycled.
@@ -97,6 +101,8 @@ pub struct Frame {
     pub velocity_violation: Vec<f64>,
     /// Multipliers λ, one per constraint row.
     pub lambda: Vec<f64>,
+    /// Per beam element: `s`, then the [`BEAM_COLUMNS`] (empty without beams).
+    pub sections: Vec<[f64; 13]>,
 }
 
 impl Frame {
@@ -114,6 +120,7 @@ impl Frame {
             violation: vec![0.0; layout.joints.len()],
             velocity_violation: vec![0.0; layout.joints.len()],
             lambda: vec![0.0; layout.rows],
+            sections: vec![[0.0; 13]; layout.beams.elements.len()],
         }
     }
 
@@ -157,6 +164,7 @@ impl Frame {
         std::mem::size_of::<Frame>()
             + layout.bodies() * (std::mem::size_of::<Pose>() + std::mem::size_of::<Twist>())
             + (2 * layout.joints.len() + layout.rows) * 8
+            + layout.beams.elements.len() * 13 * 8
     }
 }
 
@@ -479,6 +487,7 @@ struct Worker {
     bodies: Option<CsvFile>,
     energy: Option<CsvFile>,
     constraints: Option<CsvFile>,
+    beams: Option<CsvFile>,
     stats: Stats,
     failed: Arc<AtomicBool>,
     error: Arc<Mutex<Option<OutputError>>>,
@@ -486,9 +495,14 @@ struct Worker {
 
 impl Worker {
     fn files(&mut self) -> impl Iterator<Item = &mut CsvFile> {
-        [&mut self.bodies, &mut self.energy, &mut self.constraints]
-            .into_iter()
-            .flatten()
+        [
+            &mut self.bodies,
+            &mut self.energy,
+            &mut self.constraints,
+            &mut self.beams,
+        ]
+        .into_iter()
+        .flatten()
     }
 
     fn fail(&mut self, e: OutputError) {
@@ -512,6 +526,9 @@ impl Worker {
         }
         if let Some(c) = &mut self.constraints {
             csv::constraints_row(&mut c.buf, &self.layout, f);
+        }
+        if let Some(c) = &mut self.beams {
+            csv::beams_rows(&mut c.buf, &self.layout, f);
         }
         let big = self.files().any(|c| c.buf.len() >= BATCH_BYTES);
         if big {
@@ -604,6 +621,9 @@ impl OutputWriter {
             .constraints
             .then(|| CsvFile::create(dir.join("constraints.csv"), &constraints_header(layout)))
             .transpose()?;
+        let beams = (!layout.beams.is_empty())
+            .then(|| CsvFile::create(dir.join("beams.csv"), &beams_header()))
+            .transpose()?;
         write_summary(dir, &Summary::started(&meta))?;
 
         let pool_size = (POOL_BYTES / Frame::bytes(layout)).clamp(2, POOL_MAX);
@@ -619,7 +639,7 @@ impl OutputWriter {
         let failed = Arc::new(AtomicBool::new(false));
         let error = Arc::new(Mutex::new(None));
         #[cfg(test)]
-        let limits = [&bodies, &energy, &constraints]
+        let limits = [&bodies, &energy, &constraints, &beams]
             .into_iter()
             .flatten()
             .map(|c| {
@@ -636,6 +656,7 @@ impl OutputWriter {
             bodies,
             energy,
             constraints,
+            beams,
             stats: Stats::default(),
             failed: failed.clone(),
             error: error.clone(),

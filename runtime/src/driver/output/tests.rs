@@ -35,6 +35,7 @@ fn layout() -> Layout {
         rows: 9,
         row_joint: vec![0, 0, 0, 0, 0, 1, 1, 1, 2],
         row_kind,
+        beams: Default::default(),
     }
 }
 

@@ -1,0 +1,391 @@
+//! Validation of the flexible beams (issue 14, checks 2–8) against closed forms and
+//! published references. Every test states its reference and its tolerance.
+//!
+//! The scenes are written in the language; their sections are given directly (a `section`
+//! block) with the rotary inertia scaled where that only moves the shear/rotary-inertia
+//! mode, so that the explicit step stays large and the tests fast.
+
+use mbdc_runtime::scene::{MethodSpec, Relaxation, Section, StaggeredOptions};
+use mbdc_tests::*;
+
+fn relaxed() -> MethodSpec {
+    MethodSpec::Staggered(StaggeredOptions {
+        relaxation: Relaxation::Kinetic,
+        ..Default::default()
+    })
+}
+
+/// A cantilever of length 1 m along x, clamped at the origin, with a light tip body clamped
+/// to its end and a tip load `(0, 0, -P)` on it: bending stiffness `EI` (both axes), shear
+/// `GA`, axial `EA`, `ρA` = 1 kg/m.
+fn cantilever(elements: usize, p: f64, ei: f64, ga: f64, ea: f64) -> String {
+    cantilever_with(
+        elements,
+        ei,
+        ga,
+        ea,
+        10.0,
+        &format!("point(tip @ (0, 0, 0), (0, 0, -{p}) N)"),
+        "20 us",
+    )
+}
+
+/// [`cantilever`] with any load on the tip body, a rotary-inertia scale and a step.
+fn cantilever_with(
+    elements: usize,
+    ei: f64,
+    ga: f64,
+    ea: f64,
+    scale: f64,
+    load: &str,
+    step: &str,
+) -> String {
+    format!(
+        r#"
+model cantilever_test {{
+  beam blade {{
+    from (0, 0, 0) m
+    to (1, 0, 0) m
+    elements {elements}
+    up (0, 0, 1)
+    section {{ EA {ea} N; GA2 {ga} N; GA3 {ga} N; EI2 {ei} N*m^2; EI3 {ei} N*m^2; GJ {ei} N*m^2; rhoA 1 kg/m; rhoI 2e-3 kg*m }}
+    rotary_inertia_scale {scale}
+    clamp start
+    clamp end, tip @ (0, 0, 0)
+  }}
+  body tip {{
+    mass 1 g
+    inertia sphere(radius: 1 cm)
+    position (1, 0, 0) m
+  }}
+  force load = {load}
+  simulate {{ duration 1 s; step {step} }}
+}}
+"#
+    )
+}
+
+/// Check 2. Cantilever with a small tip load, 20 elements, statics by dynamic relaxation.
+/// Reference: Timoshenko beam theory, tip deflection `δ = P L³/(3EI) + P L/(GA)` (the shear
+/// term is 0.3 % of the total here), and the geometric nonlinearity at `P L²/EI = 0.01` is
+/// below 1e-5 relative (the elastica's series). Tolerance 0.5 % (the issue's); the one-point
+/// element with lumped loads is expected within `1/(4N²)` = 0.06 %.
+#[test]
+fn cantilever_small_tip_load_static_deflection() {
+    let (p, ei, ga) = (1.0, 100.0, 1e5);
+    let scene = load_text(&cantilever(20, p, ei, ga, 1e6));
+    let tr = simulate(&scene, relaxed(), 2e-5, 0.5, 1000);
+    assert!(tr.report.finished, "{:?}", tr.report.failure);
+    let tip = tr.last().pose[0].r;
+    let exact = p / (3.0 * ei) + p / ga;
+    let err = (-tip.z - exact).abs() / exact;
+    eprintln!(
+        "tip deflection {:.6e} m, reference {exact:.6e} m, relative error {err:.2e}",
+        -tip.z
+    );
+    assert!(err < 1e-3, "error {err:.2e}");
+}
+
+/// The inextensible, shear-rigid elastica of a cantilever under a dead tip load
+/// perpendicular to it, `k = P L²/EI`: `θ'' = −k cos θ`, `θ(0) = 0`, `θ'(1) = 0` (s in units
+/// of L, θ the section rotation), solved by shooting on `θ'(0)` (bisection, RK4 with 20 000
+/// steps; converged to 1e-10). Returns `(w/L, u/L, θ(1))`: the deflection along the load, the
+/// shortening, the tip rotation.
+fn elastica(k: f64) -> (f64, f64, f64) {
+    let n = 20_000;
+    let h = 1.0 / n as f64;
+    // integrate (θ, θ', x, z) from s = 0 with θ'(0) = a
+    let run = |a: f64| -> [f64; 4] {
+        let f = |y: [f64; 4]| [y[1], -k * y[0].cos(), y[0].cos(), y[0].sin()];
+        let mut y = [0.0, a, 0.0, 0.0];
+        for _ in 0..n {
+            let add = |y: [f64; 4], d: [f64; 4], c: f64| {
+                [
+                    y[0] + c * d[0],
+                    y[1] + c * d[1],
+                    y[2] + c * d[2],
+                    y[3] + c * d[3],
+                ]
+            };
+            let k1 = f(y);
+            let k2 = f(add(y, k1, h / 2.0));
+            let k3 = f(add(y, k2, h / 2.0));
+            let k4 = f(add(y, k3, h));
+            for i in 0..4 {
+                y[i] += h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]);
+            }
+        }
+        y
+    };
+    // θ'(1) decreases with a on the first branch: θ'(1) < 0 at a = 0, > 0 at a = k
+    let (mut lo, mut hi) = (0.0, k);
+    for _ in 0..60 {
+        let mid = 0.5 * (lo + hi);
+        if run(mid)[1] > 0.0 {
+            hi = mid;
+        } else {
+            lo = mid;
+        }
+    }
+    let y = run(0.5 * (lo + hi));
+    (y[3], 1.0 - y[2], y[0])
+}
+
+/// The shooting solution reproduces Mattiasson's table at `P L²/EI = 1` (w/L = 0.30172,
+/// u/L = 0.05643, θ = 0.46135 rad) to its five digits.
+#[test]
+fn elastica_reference_reproduces_mattiasson() {
+    let (w, u, th) = elastica(1.0);
+    assert!((w - 0.30172).abs() < 1e-5, "{w}");
+    assert!((u - 0.05643).abs() < 1e-5, "{u}");
+    assert!((th - 0.46135).abs() < 1e-5, "{th}");
+}
+
+/// Check 3. Large deflection under a dead tip load at `P L²/EI` = 1, 2, 5 and 10, 20
+/// elements, statics by dynamic relaxation. Reference: the elastica (Mattiasson's table at 1,
+/// [`elastica`] by shooting at all four). The section is nearly inextensible and shear-rigid
+/// (`EA = GA = 10⁵ EI/L²`, a 1e-4 effect). Tolerance 5e-4 L on the displacements and 1e-3
+/// relative on the tip rotation (the issue asks 0.5 %; measured at most 2.3e-4 L and 5.5e-4,
+/// the discretization error of 20 elements).
+#[test]
+fn cantilever_large_deflection_follows_the_elastica() {
+    for k in [1.0, 2.0, 5.0, 10.0] {
+        let load = format!("point(tip @ (0, 0, 0), (0, 0, -{k}) N)");
+        let scene = load_text(&cantilever_with(20, 1.0, 1e5, 1e5, 100.0, &load, "50 us"));
+        let tr = simulate(&scene, relaxed(), 5e-5, 6.0, 20_000);
+        assert!(tr.report.finished, "k = {k}: {:?}", tr.report.failure);
+        let tip = tr.last().pose[0];
+        let (w, u, th) = elastica(k);
+        // the tip body's rotation about y (its x axis turns down by θ)
+        let x_axis = tip.c.column(0);
+        let rot = (-x_axis.z).atan2(x_axis.x);
+        let (ew, eu, eth) = (
+            (-tip.r.z - w).abs(),
+            (1.0 - tip.r.x - u).abs(),
+            (rot - th).abs() / th,
+        );
+        eprintln!("k = {k}: w/L {:.5} ({w:.5}), u/L {:.5} ({u:.5}), θ {rot:.5} ({th:.5}); errors {ew:.1e}, {eu:.1e}, {eth:.1e}", -tip.r.z, 1.0 - tip.r.x);
+        assert!(ew < 5e-4 && eu < 5e-4 && eth < 1e-3, "k = {k}");
+    }
+}
+
+/// Check 4. Roll-up by an end moment `M = 2π EI/L` (16 elements): the cantilever closes into
+/// a circle and the tip returns to the clamp. Reference: the exact circle, tip at
+/// `u = L(sin t/t − 1)`, `v = (L/t)(1 − cos t)` for `t = M L/EI` (at 2π, back at the origin
+/// with rotation 2π); checked at M/M_max = 0.25, 0.5 and 1. Tolerance: the issue's 1e-3 L at
+/// the full moment (measured 1.2e-4 L); 2e-3 L at the intermediate ones (measured up to
+/// 9.9e-4 L at M/M_max = 0.5, where the tip is farthest from the clamp).
+#[test]
+fn cantilever_rolls_up_into_a_circle_under_an_end_moment() {
+    for frac in [0.25, 0.5, 1.0] {
+        let t = 2.0 * std::f64::consts::PI * frac;
+        // a torque about −y bends the beam up towards +z
+        let load = format!("torque(tip, (0, -{t}, 0) N*m)");
+        let scene = load_text(&cantilever_with(16, 1.0, 1e5, 1e5, 100.0, &load, "50 us"));
+        let tr = simulate(&scene, relaxed(), 5e-5, 6.0, 20_000);
+        assert!(tr.report.finished, "t = {t}: {:?}", tr.report.failure);
+        let tip = tr.last().pose[0].r;
+        let (u, v) = (t.sin() / t - 1.0, (1.0 - t.cos()) / t);
+        let err = ((tip.x - 1.0 - u).powi(2) + (tip.z - v).powi(2)).sqrt();
+        eprintln!(
+            "t = {t:.4}: tip ({:.5}, {:.5}), circle ({:.5}, {v:.5}), error {err:.2e} L",
+            tip.x - 1.0,
+            tip.z,
+            u
+        );
+        let tol = if frac == 1.0 { 1e-3 } else { 2e-3 };
+        assert!(err < tol, "t = {t}: error {err:.2e}");
+    }
+}
+
+/// The linearized clamped–free beam of `n` equal elements (length 1 m, section `sec`,
+/// rotary-inertia scale 1): its lowest `count` natural frequencies (rad/s), from the stiffness
+/// of the element kernel (central differences of [`internal_force`] at the straight,
+/// unstrained beam) and the lumped mass, by a dense symmetric eigensolution.
+fn clamped_frequencies(sec: &Section, n: usize, count: usize) -> Vec<f64> {
+    use mbdc_runtime::beam_element::{
+        internal_force, lumped_mass, BeamNode, BeamSection, ElementForce, ElementState,
+    };
+    use mbdc_runtime::math::{axis_angle, qmul};
+    use mbdc_runtime::system::{Pose, Twist};
+    use nalgebra::{DMatrix, Quaternion, Vector3};
+    let bs = BeamSection::from_scene(sec).unwrap();
+    let l = 1.0 / n as f64;
+    let node = |x: f64| BeamNode {
+        pose: Pose::new(Vector3::new(x, 0.0, 0.0), Quaternion::identity()),
+        twist: Twist::default(),
+    };
+    let reference = [node(0.0), node(l)];
+    let st0 = ElementState::new(&reference).unwrap();
+    let forces = |k: usize, d: f64| -> [f64; 12] {
+        let mut nodes = reference;
+        let (i, c) = (k / 6, k % 6);
+        if c < 3 {
+            nodes[i].pose.r[c] += d;
+        } else {
+            let q = qmul(&nodes[i].pose.q, &axis_angle(&Vector3::ith(c - 3, 1.0), d));
+            nodes[i].pose.set_q(q);
+        }
+        let (mut st, mut out) = (st0, ElementForce::default());
+        internal_force(&bs, &mut st, &nodes, &mut out).unwrap();
+        let mut f = [0.0; 12];
+        for j in 0..2 {
+            for c in 0..3 {
+                f[6 * j + c] = out.wrench[j].f[c];
+                f[6 * j + 3 + c] = out.wrench[j].t[c];
+            }
+        }
+        f
+    };
+    let mut ke = DMatrix::<f64>::zeros(12, 12);
+    for k in 0..12 {
+        let d = if k % 6 < 3 { 1e-7 * l } else { 1e-7 };
+        let (fp, fm) = (forces(k, d), forces(k, -d));
+        for i in 0..12 {
+            ke[(i, k)] = -(fp[i] - fm[i]) / (2.0 * d);
+        }
+    }
+    let ke = (&ke + ke.transpose()) * 0.5;
+    let dofs = 6 * (n + 1);
+    let mut kg = DMatrix::<f64>::zeros(dofs, dofs);
+    let mut mg = vec![0.0; dofs];
+    let share = lumped_mass(&bs, l);
+    for e in 0..n {
+        for i in 0..12 {
+            let gi = 6 * e + i;
+            mg[gi] += if i % 6 < 3 { share.m } else { share.j[i % 3] };
+            for j in 0..12 {
+                kg[(gi, 6 * e + j)] += ke[(i, j)];
+            }
+        }
+    }
+    // clamp node 0; scale by M^{-1/2}
+    let free = dofs - 6;
+    let a = DMatrix::<f64>::from_fn(free, free, |i, j| {
+        kg[(i + 6, j + 6)] / (mg[i + 6] * mg[j + 6]).sqrt()
+    });
+    let mut w: Vec<f64> = a
+        .symmetric_eigenvalues()
+        .iter()
+        .map(|l| l.max(0.0).sqrt())
+        .collect();
+    w.sort_by(|a, b| a.total_cmp(b));
+    // bending pairs (two equal planes) appear twice: keep distinct values
+    w.dedup_by(|a, b| (*a - *b).abs() < 1e-6 * *b);
+    w.truncate(count);
+    w
+}
+
+/// Check 5. First three bending frequencies of a slender cantilever, 16 elements. Reference:
+/// Euler–Bernoulli, `ω = (βL)² √(EI/(ρA L⁴))` with βL = 1.8751, 4.6941, 7.8548 (any vibration
+/// text); the section is slender (`EA = GA = 10⁶ EI/L²`, rotary inertia `ρA·EI/EA`, so the
+/// Timoshenko corrections are below 1e-5). Two parts: the linearized lumped beam's
+/// frequencies (the kernel's stiffness) within 1 % (the issue's; measured below), and the
+/// first mode measured in a run (the explicit integration) within 1 % of the same reference.
+#[test]
+fn cantilever_bending_frequencies_match_euler_bernoulli() {
+    let sec = Section {
+        ea: 1e6,
+        ga2: 1e6,
+        ga3: 1e6,
+        ei2: 1.0,
+        ei3: 1.0,
+        gj: 1.0,
+        rho_a: 1.0,
+        rho_i: 2e-6,
+    };
+    let bl = [1.8751f64, 4.6941, 7.8548];
+    let w = clamped_frequencies(&sec, 16, 3);
+    for (i, b) in bl.iter().enumerate() {
+        let exact = b * b;
+        let err = (w[i] - exact).abs() / exact;
+        eprintln!(
+            "mode {}: {:.5} rad/s, Euler–Bernoulli {exact:.5}, error {err:.2e}",
+            i + 1,
+            w[i]
+        );
+        assert!(err < 1e-2, "mode {}: {err:.2e}", i + 1);
+    }
+    // the first mode in a run: a tip load applied at t = 0 excites mostly mode 1 about the
+    // static deflection; its period from the crossings of that mean
+    // A stockier section keeps the run short (its highest mode, and so the step, set by
+    // `EA = GA = 10⁴ EI/L²` and the rotary inertia ×10): shear and rotary inertia then lower
+    // mode 1 by ~2e-3, the 1 g tip body by ~3e-4.
+    let scene = load_text(&cantilever_with(
+        16,
+        1.0,
+        1e4,
+        1e4,
+        10.0,
+        "point(tip @ (0, 0, 0), (0, 0, -0.01) N)",
+        "100 us",
+    ));
+    let period = 2.0 * std::f64::consts::PI / (bl[0] * bl[0]);
+    let tr = simulate(&scene, method("staggered"), 1e-4, 10.5 * period, 1);
+    assert!(tr.report.finished, "{:?}", tr.report.failure);
+    let t: Vec<f64> = tr.frames.iter().map(|f| f.t).collect();
+    let z: Vec<f64> = tr.frames.iter().map(|f| f.pose[0].r.z).collect();
+    let n10 = t.iter().position(|x| *x >= 10.0 * period).unwrap();
+    let mean = z[..n10].iter().sum::<f64>() / n10 as f64;
+    let mut ups = Vec::new();
+    for i in 1..t.len() {
+        let (a, b) = (z[i - 1] - mean, z[i] - mean);
+        if a < 0.0 && b >= 0.0 {
+            ups.push(t[i - 1] + (t[i] - t[i - 1]) * (-a) / (b - a));
+        }
+    }
+    assert!(ups.len() >= 9, "{ups:?}");
+    let measured = (ups[ups.len() - 1] - ups[0]) / (ups.len() - 1) as f64;
+    let err = (measured - period).abs() / period;
+    eprintln!("first-mode period in a run {measured:.6} s, Euler–Bernoulli {period:.6} s, error {err:.2e}");
+    assert!(err < 1e-2, "{err:.2e}");
+}
+
+/// Check 6. A bar rotating at constant ω about one end, in the plane normal to the axis:
+/// axial stretch `U(x) = ρω²/(2E) (x L² − x³/3)` (centrifugal load, small strain; any
+/// rotor-dynamics text). The bar is clamped to a hub driven from rest to ω = 10 rad/s over
+/// 2 s (angle `Ω(s³/T² − s⁴/(2T³) + t − s)`, s = min(t, T)), then held; its stretch at the tip
+/// and at midspan after 3 s is compared with `U(L)` and `U(L/2)`. Tolerance 0.5 % (the issue
+/// asks 1 %; measured 2.9e-3, the lumped 20-element bar's discretization error).
+#[test]
+fn rotating_bar_stretches_as_the_centrifugal_load_says() {
+    let (omega, ea, rho_a) = (10.0f64, 1e5, 1.0);
+    let text = format!(
+        r#"
+model spin_bar {{
+  param W = {omega} rad/s
+  param T = 2 s
+  body hub {{ mass 1 kg; inertia diag(0.01, 0.01, 0.01) kg*m^2 }}
+  joint axle = revolute(ground @ (0, 0, 0), hub @ (0, 0, 0), axis: (0, 0, 1))
+  joint motor = drive_angle(axle, W * (min(t, T)^3 / T^2 - min(t, T)^4 / (2 * T^3) + t - min(t, T)))
+  beam bar {{
+    from (0, 0, 0) m
+    to (1, 0, 0) m
+    elements 20
+    up (0, 0, 1)
+    section {{ EA {ea} N; GA2 {ea} N; GA3 {ea} N; EI2 100 N*m^2; EI3 100 N*m^2; GJ 100 N*m^2; rhoA {rho_a} kg/m; rhoI 1e-3 kg*m }}
+    rotary_inertia_scale 10
+    damping 1e-5 s
+    clamp start, hub @ (0, 0, 0)
+  }}
+  simulate {{ duration 3 s; step 50 us }}
+}}
+"#
+    );
+    let scene = load_text(&text);
+    let tr = simulate(&scene, method("staggered"), 5e-5, 3.0, 1000);
+    assert!(tr.report.finished, "{:?}", tr.report.failure);
+    let last = tr.last();
+    // bodies: hub, then the bar's nodes 0..=20
+    let u = |node: usize, x: f64| last.pose[1 + node].r.norm() - x;
+    let exact = |x: f64| rho_a * omega * omega / (2.0 * ea) * (x - x * x * x / 3.0);
+    for (node, x) in [(20, 1.0), (10, 0.5)] {
+        let err = (u(node, x) - exact(x)).abs() / exact(x);
+        eprintln!(
+            "stretch at x = {x}: {:.6e} m, exact {:.6e} m, error {err:.2e}",
+            u(node, x),
+            exact(x)
+        );
+        assert!(err < 5e-3, "x = {x}: {err:.2e}");
+    }
+}
