@@ -576,6 +576,8 @@ fn step_failure<S: System>(sys: &S, e: &StepError, t: f64, step: u64, h: f64) ->
             format!("{e}"),
             if what.contains("PCG") {
                 format!("raise the PCG limit (`method natural_partitioning {{ max_iterations N }}`, now {iterations}) or loosen its `tolerance`; near a singular configuration of the loops, reduce the step (now {h:.3e} s)")
+            } else if what.contains("redundant") {
+                "the joints' redundancy changed during the run: remove the redundant rows (`mbdc check` names the joints; spherical or universal joints instead of revolutes close a planar loop without them), or use method staggered, which regularizes them".to_string()
             } else {
                 format!("reduce the step (now {h:.3e} s) or raise max_iterations")
             },
