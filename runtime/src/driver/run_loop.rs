@@ -150,6 +150,10 @@ pub struct RunReport {
     pub retries: u32,
     /// Largest holonomic violation seen after any step, and the joint.
     pub max_violation: (f64, String),
+    /// Largest holonomic violation relative to its joint's own length ([`joint_lengths`]) seen
+    /// after any step: (ratio, joint, the joint's length in m). Above
+    /// [`JOINT_LENGTH_WARNING`] the run says so through [`Observer::notice`].
+    pub max_relative_violation: (f64, String, f64),
     /// Largest |E − E₀| / max(|E₀|, energy in play) seen after any step.
     pub max_energy_drift: f64,
     /// Method statistics (name, value).
@@ -287,6 +291,7 @@ pub fn run<S: System>(sys: &S, cfg: &RunConfig, obs: &mut dyn Observer) -> RunRe
         failure: None,
         retries: 0,
         max_violation: (0.0, String::new()),
+        max_relative_violation: (0.0, String::new(), 0.0),
         max_energy_drift: 0.0,
         stats: Vec::new(),
     };
@@ -304,10 +309,11 @@ pub fn run<S: System>(sys: &S, cfg: &RunConfig, obs: &mut dyn Observer) -> RunRe
     }
     let mut ew = EnergyWatch::new(sys, &start);
     let every = cfg.every.max(1) as u64;
+    let lengths = joint_lengths(sys, &start);
 
     // the initial frame
     probe.holonomic(sys, &start);
-    track(layout, &probe, &ew, &mut report);
+    track(layout, &probe, &ew, &lengths, &mut report);
     emit(sys, &start, 0, &mut probe, obs, &ew);
     'attempt: loop {
         let mut integ = match integrators::make(&cfg.method, sys, h, &start) {
@@ -350,7 +356,7 @@ pub fn run<S: System>(sys: &S, cfg: &RunConfig, obs: &mut dyn Observer) -> RunRe
             let failure = failure.or_else(|| {
                 probe.holonomic(sys, &st);
                 ew.observe(sys, &st);
-                track(layout, &probe, &ew, &mut report);
+                track(layout, &probe, &ew, &lengths, &mut report);
                 check(sys, cfg, &st, &probe, report.steps, h, &ew)
             });
             let failure = match failure {
@@ -395,7 +401,67 @@ pub fn run<S: System>(sys: &S, cfg: &RunConfig, obs: &mut dyn Observer) -> RunRe
     }
     report.step = h;
     obs.progress(report.t_end);
+    let (ratio, joint, length) = &report.max_relative_violation;
+    if *ratio > JOINT_LENGTH_WARNING {
+        obs.notice(&format!(
+            "warning: the violation of joint '{joint}' reached {:.3e} m, {:.1} % of the joint's own length ({length:.3e} m, its largest lever arm or body size): the answer is not accurate to the scene's scale. Reduce the step (now {h:.3e} s){}",
+            ratio * length,
+            100.0 * ratio,
+            if cfg.method.name() == "penalty" {
+                ", give penalty a smaller `epsilon`, or use method staggered"
+            } else {
+                ""
+            }
+        ));
+    }
     report
+}
+
+/// Above this fraction of a joint's own length ([`joint_lengths`]), the run's violation is
+/// reported as a warning at its end.
+pub const JOINT_LENGTH_WARNING: f64 = 1e-2;
+
+/// Per joint, the length its violation is measured against: the largest lever arm of its
+/// position rows on either body (|r × e| from the Jacobian at the start) or radius of
+/// gyration (√(tr J / m)) of its bodies. A chain of 7 mm links gets 3.5 mm, where the scene's
+/// length scale (the largest distance from the origin, at least 1 m) gave 1 m. Joints between
+/// bodies of zero size at their centres (or only ground) fall back on `length_scale`.
+pub fn joint_lengths<S: System>(sys: &S, st: &State) -> Vec<f64> {
+    let l = sys.layout();
+    let mut ce = ConstraintEval::new(l.rows);
+    sys.constraints(st.t, &st.pose, &st.twist, Need::JAC, &mut ce);
+    let gyration = |b: usize| {
+        let m = &l.mass[b];
+        (m.j.trace() / m.m).max(0.0).sqrt()
+    };
+    let fallback = length_scale(sys);
+    l.joints
+        .iter()
+        .map(|jl| {
+            let mut len: f64 = 0.0;
+            for side in [jl.a, jl.b].into_iter().flatten() {
+                if side < l.bodies() {
+                    len = len.max(gyration(side));
+                }
+            }
+            for r in jl.first_row..jl.first_row + jl.rows {
+                let row = &ce.jac[r];
+                for part in [&row.a, &row.b] {
+                    let lin = (part[0] * part[0] + part[1] * part[1] + part[2] * part[2]).sqrt();
+                    if lin > 0.0 {
+                        let ang =
+                            (part[3] * part[3] + part[4] * part[4] + part[5] * part[5]).sqrt();
+                        len = len.max(ang / lin);
+                    }
+                }
+            }
+            if len.is_finite() && len > 0.0 {
+                len
+            } else {
+                fallback
+            }
+        })
+        .collect()
 }
 
 /// Fold the watchdog's per-step numbers into the report (largest violation and its joint,
@@ -404,12 +470,17 @@ fn track(
     layout: &crate::contract::system::Layout,
     probe: &Probe,
     ew: &EnergyWatch,
+    lengths: &[f64],
     report: &mut RunReport,
 ) {
     report.max_energy_drift = report.max_energy_drift.max(ew.relative_change().abs());
     for (j, v) in probe.violation.iter().enumerate() {
         if *v > report.max_violation.0 {
             report.max_violation = (*v, layout.joints[j].name.clone());
+        }
+        let ratio = v / lengths[j];
+        if ratio > report.max_relative_violation.0 {
+            report.max_relative_violation = (ratio, layout.joints[j].name.clone(), lengths[j]);
         }
     }
 }
@@ -696,6 +767,12 @@ pub fn run_to_dir<S: System>(
     summary
         .extra
         .insert("retries".into(), report.retries.into());
+    if let Some(v) = serde_json::Number::from_f64(report.max_relative_violation.0) {
+        summary.extra.insert(
+            "max_violation_of_joint_length".into(),
+            serde_json::Value::Number(v),
+        );
+    }
     let ToWriter { writer, error, .. } = obs;
     if let Some(e) = error {
         let _ = writer.finish(&summary);
@@ -795,6 +872,54 @@ mod tests {
         assert!((r1.t_end - r1.steps as f64 * 1e-3).abs() < 1e-12);
         let (r, _, _) = verdict(1000);
         assert!(r.t_end > 0.0 && !r.finished);
+    }
+
+    /// A violation small against the scene (1 m, the watchdog's floor) but large against the
+    /// joint's own lengths is reported (issue 21): a 2 cm rod (pivot lever arm 1 cm) under
+    /// penalty with ε = 1e-5 m/N sags by about ε·λ ≈ 1e-4 m, 1 % of its lever arm and far below
+    /// the 1 cm stop. Reference: the same rod with `staggered` (violation at round-off) gets no
+    /// warning. Before, nothing was said.
+    #[test]
+    fn a_violation_large_for_the_joint_is_reported() {
+        let sys = RodPendulum::new(1.0, 0.02, 0.001, 1.0);
+        let lengths = joint_lengths(&sys, &State::initial(&sys));
+        assert!((lengths[0] - 0.01).abs() < 1e-3, "{lengths:?}");
+        let run_with = |method: MethodSpec| {
+            let cfg = RunConfig {
+                duration: 0.5,
+                step: 1e-4,
+                method,
+                every: 100,
+                on_failure: OnFailure::Stop,
+                watchdog: Watchdog::for_scale(1.0, false),
+            };
+            let mut obs = Count(0, vec![]);
+            let r = run(&sys, &cfg, &mut obs);
+            assert!(r.finished, "{:?}", r.failure);
+            (r, obs.1)
+        };
+        let (r, notices) = run_with(MethodSpec::Penalty {
+            epsilon: Some(1e-5),
+        });
+        eprintln!(
+            "penalty: {:.3e} m, {:.2} of the joint's length; {notices:?}",
+            r.max_violation.0, r.max_relative_violation.0
+        );
+        assert!(r.max_relative_violation.0 > JOINT_LENGTH_WARNING);
+        assert_eq!(r.max_relative_violation.1, "pivot");
+        assert!(
+            notices
+                .iter()
+                .any(|n| n.contains("warning") && n.contains("'pivot'") && n.contains("epsilon")),
+            "{notices:?}"
+        );
+        let (r, notices) = run_with(MethodSpec::Staggered(StaggeredOptions::default()));
+        assert!(
+            r.max_relative_violation.0 < 1e-9,
+            "{:?}",
+            r.max_relative_violation
+        );
+        assert!(notices.is_empty(), "{notices:?}");
     }
 
     #[test]
