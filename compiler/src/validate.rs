@@ -56,7 +56,7 @@ pub fn validate(scene: &Scene, sources: &Sources) -> Vec<Diagnostic> {
                 check.redundant.join("; ")
             ),
         )
-        .help("redundant rows are fine for the staggered method (it regularizes them) but make the Lagrange-multiplier methods fail; planar mechanisms modelled with 3-D revolute joints are redundant, spherical or universal joints remove the extra rows");
+        .help("redundant rows are fine for staggered and natural_partitioning (they regularize them) and for implicit_trapezoid (it sets them aside), but make baumgarte and coordinate_partitioning fail; planar mechanisms modelled with 3-D revolute joints are redundant, spherical or universal joints remove the extra rows");
         if let Some(j) = scene.joints.first() {
             let (f, s) = Sources::resolve(j.origin);
             d = d.primary(f, s, "");

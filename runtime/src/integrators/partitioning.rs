@@ -16,8 +16,13 @@
 //!   correcting only the dependent positions (translations, and body-frame rotation
 //!   increments applied to the Euler parameters), then the dependent velocities from
 //!   `B_d u̇_d = −(B_i u̇_i + b)`.
-//! - The partition is chosen again when the smallest pivot of `B_d` falls below 1/10 of its
-//!   value when it was chosen (near a singular `B_d` the partition must change: notes A §4).
+//! - The partition is chosen again when `B_d` becomes ill conditioned against `B` itself: when
+//!   the smallest pivot of its LU factorization, relative to the largest entry of `B`, falls
+//!   below 1/10 of its value when the partition was chosen (near a singular `B_d` the partition
+//!   must change: notes A §4). The measure must be relative to `B`, not to `B_d`'s own largest
+//!   pivot: a one-row `B_d` (a distance joint's single row) always has a pivot ratio of 1, and
+//!   a point-mass pendulum swung through the vertical with its dependent coordinate `x`, whose
+//!   Jacobian entry goes to zero there, ended 0.48 m off with "partitions: 1".
 
 use nalgebra::{DMatrix, Vector3};
 
@@ -43,7 +48,11 @@ pub struct Partitioning {
     dep: Vec<usize>,
     ind: Vec<usize>,
     is_dep: Vec<bool>,
+    /// `min |pivot of LU(B_d)| / max |B|` when the partition was chosen (NaN until the first
+    /// factorization after a choice).
     pivot_at_choice: f64,
+    /// The row whose elimination pivot was the smallest when the partition was chosen.
+    weakest_row: usize,
     partitions: u64,
     // buffers
     ce: ConstraintEval,
@@ -106,7 +115,8 @@ impl Partitioning {
             dep: Vec::with_capacity(m),
             ind: Vec::with_capacity(n),
             is_dep: vec![false; n],
-            pivot_at_choice: 0.0,
+            pivot_at_choice: f64::NAN,
+            weakest_row: 0,
             partitions: 0,
             ce: ConstraintEval::new(m),
             applied: vec![Wrench::default(); nb],
@@ -181,6 +191,7 @@ impl Partitioning {
         self.is_dep.iter_mut().for_each(|d| *d = false);
         let mut smallest = f64::INFINITY;
         let mut largest: f64 = 0.0;
+        self.weakest_row = self.rows.first().copied().unwrap_or(0);
         for k in 0..ma {
             let mut best = (0.0, usize::MAX);
             for c in 0..n {
@@ -195,7 +206,10 @@ impl Partitioning {
                     row: self.rows[k],
                 });
             }
-            smallest = smallest.min(best.0);
+            if best.0 < smallest {
+                smallest = best.0;
+                self.weakest_row = self.rows[k];
+            }
             let c = best.1;
             self.dep.push(c);
             self.is_dep[c] = true;
@@ -215,11 +229,8 @@ impl Partitioning {
                 self.ind.push(c);
             }
         }
-        self.pivot_at_choice = if ma == 0 {
-            1.0
-        } else {
-            smallest / largest.max(1e-300)
-        };
+        // the conditioning of this B_d is measured at its first factorization
+        self.pivot_at_choice = f64::NAN;
         self.partitions += 1;
         let ni = self.ind.len();
         self.bd = DMatrix::zeros(ma, ma);
@@ -233,7 +244,8 @@ impl Partitioning {
         Ok(())
     }
 
-    /// Factor `B_d` from the current `self.b`; re-partition if it has become ill conditioned.
+    /// Factor `B_d` from the current `self.b`; re-partition if it has become ill conditioned
+    /// against `B` (see the module documentation).
     fn factor_bd<S: System>(&mut self, sys: &S) -> Result<(), StepError> {
         for attempt in 0..2 {
             let ma = self.rows.len();
@@ -245,11 +257,18 @@ impl Partitioning {
             if ma == 0 {
                 return Ok(());
             }
-            let (ok, ratio) = match self.lu_d.factor(&self.bd) {
-                Ok(st) => (true, st.pivot_ratio()),
-                Err(_) => (false, 0.0),
+            let bmax = self.b.iter().fold(0.0f64, |a, v| a.max(v.abs()));
+            let quality = match self.lu_d.factor(&self.bd) {
+                Ok(st) => st.min_abs_pivot / bmax.max(1e-300),
+                Err(_) => 0.0,
             };
-            if ok && ratio >= 0.1 * self.pivot_at_choice {
+            if self.pivot_at_choice.is_nan() {
+                // a fresh partition: its own conditioning is the reference
+                self.pivot_at_choice = quality;
+                if quality > 0.0 {
+                    return Ok(());
+                }
+            } else if quality >= 0.1 * self.pivot_at_choice {
                 return Ok(());
             }
             if attempt == 0 {
@@ -257,8 +276,8 @@ impl Partitioning {
             }
         }
         Err(StepError::Singular {
-            what: "coordinate partitioning B_d",
-            row: 0,
+            what: "coordinate partitioning B_d (no choice of dependent coordinates is well conditioned here)",
+            row: self.weakest_row,
         })
     }
 
@@ -353,7 +372,7 @@ impl Partitioning {
             .factor(&self.mred)
             .map_err(|_| StepError::Singular {
                 what: "reduced mass matrix",
-                row: 0,
+                row: self.weakest_row,
             })?;
         self.lu_red.solve_in_place(&mut self.xv[..ni]);
         // ü = Z ü_i + ü_p
@@ -398,6 +417,7 @@ impl Partitioning {
         if hol == 0 {
             return Ok(0);
         }
+        let (mut worst, mut worst_row): (f64, usize) = (0.0, self.rows[0]);
         for it in 0..MAX_NEWTON {
             sys.constraints(
                 t,
@@ -410,10 +430,13 @@ impl Partitioning {
                 },
                 &mut self.ce,
             );
-            let mut worst: f64 = 0.0;
+            worst = 0.0;
             for (k, &r) in self.rows[..hol].iter().enumerate() {
                 self.xv[k] = -self.ce.phi[r];
-                worst = worst.max(self.ce.phi[r].abs());
+                // NaN counts as the worst
+                if self.ce.phi[r].is_nan() || self.ce.phi[r].abs() > worst {
+                    (worst, worst_row) = (self.ce.phi[r].abs(), r);
+                }
             }
             if worst <= self.tol {
                 return Ok(it);
@@ -428,7 +451,7 @@ impl Partitioning {
                 .factor(&self.bh)
                 .map_err(|_| StepError::Singular {
                     what: "coordinate partitioning position projection",
-                    row: 0,
+                    row: self.weakest_row,
                 })?;
             self.lu_h.solve_in_place(&mut self.xv[..hol]);
             for j in 0..hol {
@@ -447,8 +470,8 @@ impl Partitioning {
         Err(StepError::NoConvergence {
             what: "coordinate partitioning position projection",
             iterations: MAX_NEWTON,
-            residual: f64::NAN,
-            row: None,
+            residual: worst,
+            row: Some(worst_row),
         })
     }
 

@@ -183,6 +183,82 @@ pub struct TwoStage {
 
 const MAX_NEWTON: u32 = 25;
 
+/// An upper bound of `K_rr = (B M⁻¹ Bᵀ)_rr` over every configuration the joint can take, for
+/// the penalty method's default ε. A position row acts on body b through `(u, r × Cᵀu)` with
+/// the lever arm r fixed in the body: `K_rr ≤ Σ_b |u|²(1/m_b + |r|² max_{w ⟂ r} wᵀJ_b⁻¹w)`,
+/// with r recovered from the joint's position rows (`r = ½ Σ_i ûᵢ × âᵢ` over three orthonormal
+/// directions; with fewer, the largest |âᵢ| and the largest eigenvalue of J⁻¹). A rotational
+/// row's direction may turn in the body: `|a|² λ_max(J_b⁻¹)`.
+fn penalty_k_bound(
+    layout: &crate::contract::system::Layout,
+    ce: &ConstraintEval,
+    pose: &[Pose],
+    j: &crate::contract::system::JointLayout,
+    r: usize,
+) -> f64 {
+    use nalgebra::{Matrix3, Vector3};
+    let rows = j.first_row..j.first_row + j.rows;
+    let mut k = 0.0;
+    for (side, body) in [(0, j.a), (1, j.b)] {
+        let Some(b) = body.filter(|&b| b < layout.bodies()) else {
+            continue;
+        };
+        let part = |row: usize| -> (Vector3<f64>, Vector3<f64>) {
+            let p = if side == 0 {
+                &ce.jac[row].a
+            } else {
+                &ce.jac[row].b
+            };
+            (
+                Vector3::new(p[0], p[1], p[2]),
+                Vector3::new(p[3], p[4], p[5]),
+            )
+        };
+        let mp = &layout.mass[b];
+        let jinv: Matrix3<f64> = mp.j_inv;
+        let lmax = jinv.symmetric_eigen().eigenvalues.max();
+        let (lin, ang) = part(r);
+        let l2 = lin.norm_squared();
+        if l2 == 0.0 {
+            k += ang.norm_squared() * lmax;
+            continue;
+        }
+        // the lever arm from the joint's position rows (body components)
+        let c = pose[b].c;
+        let mut sum = Vector3::zeros();
+        let (mut count, mut arm2): (usize, f64) = (0, 0.0);
+        for q in rows.clone() {
+            let (u, a) = part(q);
+            let n = u.norm();
+            if n == 0.0 {
+                continue;
+            }
+            let (ub, ab) = (c.transpose() * (u / n), a / n);
+            sum += ub.cross(&ab);
+            arm2 = arm2.max(ab.norm_squared());
+            count += 1;
+        }
+        let rb = sum * 0.5;
+        let consistent = count >= 3
+            && rows.clone().all(|q| {
+                let (u, a) = part(q);
+                let n = u.norm();
+                n == 0.0
+                    || (rb.cross(&(c.transpose() * (u / n))) - a / n).norm()
+                        <= 1e-9 * (1.0 + rb.norm())
+            });
+        let rot = if consistent && rb.norm() > 0.0 {
+            let rh = rb.normalize();
+            let proj = Matrix3::identity() - rh * rh.transpose();
+            rb.norm_squared() * (proj * jinv * proj).symmetric_eigen().eigenvalues.max()
+        } else {
+            arm2 * lmax
+        };
+        k += l2 * (1.0 / mp.m + rot);
+    }
+    k
+}
+
 impl TwoStage {
     /// The staggered explicit–implicit method.
     pub fn staggered<S: System>(
@@ -323,6 +399,10 @@ impl TwoStage {
                 // √(λ_max(E⁻¹K))·h stay at most 1, half the explicit limit 2, and each row's
                 // sag ε_rλ_r follows its own stiffness: one scalar ε sized for the stiffest
                 // row (a slender rod's axial rotation) let the translations sag by decimetres.
+                // K_rr is that of any configuration the run may reach, not only the start's
+                // ([`penalty_k_bound`]): sized at a start where a row's lever arm lies along
+                // the row, a bob on a revolute blew up at every step down to 1e-5 s once it
+                // swung, always at the same time (its penalty frequency grew 80-fold).
                 let mut on_body = vec![0usize; nb];
                 for j in &layout.joints {
                     for b in j.a.into_iter().chain(j.b) {
@@ -339,10 +419,11 @@ impl TwoStage {
                     for r in j.first_row..j.first_row + j.rows {
                         // rows inactive at the start (locks) have no K_rr yet: the bound
                         // of the whole matrix
+                        let bound = penalty_k_bound(layout, &ce, &pose, j, r);
                         let k = if kd[r] > 0.0 {
-                            g.max(1) as f64 * kd[r]
+                            g.max(1) as f64 * kd[r].max(bound)
                         } else {
-                            kmax
+                            kmax.max(g.max(1) as f64 * bound)
                         };
                         e[r] = (h * h * k).max(f64::MIN_POSITIVE);
                     }

@@ -90,6 +90,7 @@ impl InterpRunner {
             }),
             retries: 0,
             max_violation: (0.0, String::new()),
+            max_relative_violation: (0.0, String::new(), 0.0),
             max_energy_drift: 0.0,
             stats: Vec::new(),
         })
