@@ -215,11 +215,12 @@ impl Topology {
         };
         f.grow(ground, 0);
         let mut free_roots = Vec::new();
+        let mut bfs = Bfs::new(adj.len());
         for start in 0..n {
             if f.visited[start] {
                 continue;
             }
-            let root = component_centre(start, &adj, &f.visited);
+            let root = component_centre(&mut bfs, start, &adj, &f.visited);
             free_roots.push(root);
             f.parent[root] = Parent::Free;
             f.level[root] = 0;
@@ -558,41 +559,72 @@ impl Forest<'_> {
     }
 }
 
-/// BFS distances from `start` over eligible joints among unvisited bodies.
-fn bfs_far(
-    start: usize,
-    adj: &[Vec<(usize, usize)>],
-    visited: &[bool],
-) -> (usize, Vec<usize>, Vec<usize>) {
-    let n = adj.len();
-    let mut dist = vec![usize::MAX; n];
-    let mut prev = vec![usize::MAX; n];
-    let mut q = VecDeque::new();
-    dist[start] = 0;
-    q.push_back(start);
-    let mut far = start;
-    while let Some(u) = q.pop_front() {
-        if dist[u] > dist[far] {
-            far = u;
-        }
-        for &(v, _) in &adj[u] {
-            if !visited[v] && dist[v] == usize::MAX {
-                dist[v] = dist[u] + 1;
-                prev[v] = u;
-                q.push_back(v);
-            }
+/// Breadth-first search buffers, sized once for all bodies and reset only where a search
+/// went: a scene of many small components (200 000 free bodies) costs linear time, not
+/// (bodies × components).
+struct Bfs {
+    dist: Vec<usize>,
+    prev: Vec<usize>,
+    touched: Vec<usize>,
+    queue: VecDeque<usize>,
+}
+
+impl Bfs {
+    fn new(n: usize) -> Bfs {
+        Bfs {
+            dist: vec![usize::MAX; n],
+            prev: vec![usize::MAX; n],
+            touched: Vec::new(),
+            queue: VecDeque::new(),
         }
     }
-    (far, dist, prev)
+
+    /// Forget the last search (only the entries it set).
+    fn reset(&mut self) {
+        for &u in &self.touched {
+            self.dist[u] = usize::MAX;
+            self.prev[u] = usize::MAX;
+        }
+        self.touched.clear();
+    }
+
+    /// BFS distances from `start` over eligible joints among unvisited bodies; returns the
+    /// farthest body (distances and predecessors stay in the buffers until the next search).
+    fn far(&mut self, start: usize, adj: &[Vec<(usize, usize)>], visited: &[bool]) -> usize {
+        self.reset();
+        self.dist[start] = 0;
+        self.touched.push(start);
+        self.queue.push_back(start);
+        let mut far = start;
+        while let Some(u) = self.queue.pop_front() {
+            if self.dist[u] > self.dist[far] {
+                far = u;
+            }
+            for &(v, _) in &adj[u] {
+                if !visited[v] && self.dist[v] == usize::MAX {
+                    self.dist[v] = self.dist[u] + 1;
+                    self.prev[v] = u;
+                    self.touched.push(v);
+                    self.queue.push_back(v);
+                }
+            }
+        }
+        far
+    }
 }
 
 /// The middle of a longest shortest path of the component of `start` (double sweep).
-fn component_centre(start: usize, adj: &[Vec<(usize, usize)>], visited: &[bool]) -> usize {
-    let (u, _, _) = bfs_far(start, adj, visited);
-    let (v, dist, prev) = bfs_far(u, adj, visited);
+fn component_centre(
+    bfs: &mut Bfs,
+    start: usize,
+    adj: &[Vec<(usize, usize)>],
+    visited: &[bool],
+) -> usize {
+    let u = bfs.far(start, adj, visited);
+    let v = bfs.far(u, adj, visited);
     let mut c = v;
-    for _ in 0..dist[v] / 2 {
-        c = prev[c];
+    for _ in 0..bfs.dist[v] / 2 {
+        c = bfs.prev[c];
     }
     c
 }
