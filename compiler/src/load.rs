@@ -42,7 +42,7 @@ pub fn read_input(path: &Path, limit: u64) -> std::io::Result<String> {
     if !meta.is_file() {
         return Err(invalid(format!(
             "{} is not a regular file",
-            file_kind(&meta.file_type())
+            mbdc_runtime::study::table::file_kind(&meta.file_type())
         )));
     }
     let too_large = |size: u64| {
@@ -66,31 +66,6 @@ pub fn read_input(path: &Path, limit: u64) -> std::io::Result<String> {
 
 fn invalid(message: String) -> std::io::Error {
     std::io::Error::new(std::io::ErrorKind::InvalidInput, message)
-}
-
-/// What a file that is not a regular file is, for messages.
-fn file_kind(t: &std::fs::FileType) -> &'static str {
-    #[cfg(unix)]
-    {
-        use std::os::unix::fs::FileTypeExt;
-        if t.is_char_device() {
-            return "a character device";
-        }
-        if t.is_block_device() {
-            return "a block device";
-        }
-        if t.is_fifo() {
-            return "a FIFO (named pipe)";
-        }
-        if t.is_socket() {
-            return "a socket";
-        }
-    }
-    if t.is_dir() {
-        "a directory"
-    } else {
-        "a special file"
-    }
 }
 
 /// One import statement after resolution.

@@ -269,16 +269,15 @@ pub fn estimate(scene: &Scene) -> Estimate {
         else {
             continue;
         };
-        let Some(w) = beam_element_frequency(&beam.section, l, beam.rotary_inertia_scale) else {
+        let Some((w, h_max)) =
+            beam_step_limit(&beam.section, l, beam.rotary_inertia_scale, beam.damping)
+        else {
             continue;
         };
-        // stiffness-proportional damping lowers the leapfrog's limit to
-        // h ≤ (2/ω)(√(1 + ξ²) − ξ), ξ = βω/2: reported as the equivalent 2/h
-        let xi = 0.5 * beam.damping * w;
-        let damped = w / ((1.0 + xi * xi).sqrt() - xi);
+        // reported as the equivalent rate 2/h_max (the damped limit's)
         sources.push(Source {
-            omega: damped,
-            what: if xi > 0.0 {
+            omega: 2.0 / h_max,
+            what: if beam.damping > 0.0 {
                 format!(
                     "beam '{}', element {e} (its highest mode, {w:.4e} rad/s, with damping {} s)",
                     beam.name, beam.damping
@@ -291,6 +290,21 @@ pub fn estimate(scene: &Scene) -> Estimate {
     }
     sources.sort_by(|a, b| b.omega.total_cmp(&a.omega));
     Estimate { sources }
+}
+
+/// The explicit step limit of a beam whose shortest element has length `l`: its highest
+/// frequency ω ([`beam_element_frequency`]) and the largest stable leapfrog step,
+/// `(2/ω)(√(1 + ξ²) − ξ)` with `ξ = βω/2` for stiffness-proportional damping β (`2/ω`
+/// undamped). `None` for a section the kernel refuses.
+pub fn beam_step_limit(
+    section: &crate::contract::scene::Section,
+    l: f64,
+    rotary_scale: f64,
+    damping: f64,
+) -> Option<(f64, f64)> {
+    let w = beam_element_frequency(section, l, rotary_scale)?;
+    let xi = 0.5 * damping * w;
+    Some((w, (2.0 / w) * ((1.0 + xi * xi).sqrt() - xi)))
 }
 
 /// The highest natural frequency (rad/s) of one free beam element of length `l` with its

@@ -171,15 +171,14 @@ pub fn make<'a, S: System + 'a>(
     })
 }
 
-/// The refusal of a step above a beam's explicit limit, if any: per beam, the highest mode
-/// of its shortest element ([`crate::analysis::step_limits::beam_element_frequency`], an upper
-/// bound on the beam's), lowered by its damping; the leapfrog is unstable above `2/ω`.
+/// The refusal of a step above a beam's explicit limit, if any: per beam, the limit of its
+/// shortest element ([`crate::analysis::step_limits::beam_step_limit`]).
 fn beam_step_limit(
     layout: &crate::contract::system::Layout,
     start: &State,
     h: f64,
 ) -> Option<String> {
-    use crate::analysis::step_limits::beam_element_frequency;
+    use crate::analysis::step_limits::beam_step_limit;
     for b in &layout.beams.beams {
         let node = |k: usize| start.pose.get(b.first_body + k).map(|p| p.r);
         let Some((e, l)) = (0..b.elements)
@@ -188,14 +187,12 @@ fn beam_step_limit(
         else {
             continue;
         };
-        let w = beam_element_frequency(&b.section, l, b.rotary_inertia_scale)?;
-        let xi = 0.5 * b.damping * w;
-        let limit = (2.0 / w) * ((1.0 + xi * xi).sqrt() - xi);
+        let (w, limit) = beam_step_limit(&b.section, l, b.rotary_inertia_scale, b.damping)?;
         if h > limit {
             return Some(format!(
                 "beam '{}', element {e}: the step {h:.3e} s is above the explicit limit {limit:.3e} s of the beam's highest mode ({w:.4e} rad/s{}); reduce the step, or raise the beam's `rotary_inertia_scale` (it lowers the shear/rotary-inertia mode; see docs/methods.md)",
                 b.name,
-                if xi > 0.0 { ", with its damping" } else { "" }
+                if b.damping > 0.0 { ", with its damping" } else { "" }
             ));
         }
     }

@@ -60,8 +60,9 @@ fn past_limit<R: std::io::Read>(r: &csv::Reader<R>) -> bool {
     r.position().byte() > MAX_TABLE_BYTES
 }
 
-/// What a file that is not a regular file is, for messages.
-fn file_kind(t: &std::fs::FileType) -> &'static str {
+/// What a file that is not a regular file is, for messages ("a character device", "a FIFO
+/// (named pipe)", …). Also what the compiler's input reader says of a model or mesh file.
+pub fn file_kind(t: &std::fs::FileType) -> &'static str {
     #[cfg(unix)]
     {
         use std::os::unix::fs::FileTypeExt;
