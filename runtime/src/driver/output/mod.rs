@@ -18,8 +18,9 @@
 //! - **Bounded memory.** All [`Frame`]s are allocated by [`OutputWriter::create`]: a pool
 //!   of `clamp(64 MiB / frame size, 2, 32)` buffers. [`OutputWriter::frame`] blocks while
 //!   every buffer is queued, so a slow disk slows the simulation instead of growing memory.
-//! - **No allocation on the simulation thread.** `frame` and `submit` move buffers through
-//!   bounded (preallocated) channels; all formatting happens on the writer thread, into
+//! - **No allocation on the simulation thread.** `frame` takes buffers from a pool that
+//!   waits on a futex (`frame_pool.rs`), `submit` sends them through a bounded channel
+//!   that holds every buffer there is (so it never waits); all formatting happens on the writer thread, into
 //!   `String`s reused across batches.
 //! - **Lag and integrity.** The writer writes whenever its queue runs empty (and whenever
 //!   a file's batch exceeds 1 MiB), so data on disk lags the simulation by at most one
@@ -54,6 +55,7 @@
 //! not depend on where the potential's zero is once anything has moved.
 
 mod csv;
+mod frame_pool;
 mod json;
 mod vtk;
 
@@ -63,6 +65,8 @@ use std::io::Write as _;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::{sync_channel, Receiver, SyncSender};
+
+use frame_pool::{FramePool, FrameReturn};
 use std::sync::{Arc, Mutex};
 use std::thread::JoinHandle;
 
@@ -566,13 +570,13 @@ impl Worker {
         }
     }
 
-    fn run(mut self, rx: Receiver<Frame>, pool: SyncSender<Frame>) -> Stats {
+    fn run(mut self, rx: Receiver<Frame>, pool: FrameReturn) -> Stats {
         while let Ok(first) = rx.recv() {
             self.write(&first);
-            let _ = pool.try_send(first);
+            pool.give(first);
             while let Ok(f) = rx.try_recv() {
                 self.write(&f);
-                let _ = pool.try_send(f);
+                pool.give(f);
             }
             self.flush();
         }
@@ -589,7 +593,7 @@ pub struct OutputWriter {
     joint_names: Vec<String>,
     layout_for_fallback: Layout,
     tx: Option<SyncSender<Frame>>,
-    pool: Receiver<Frame>,
+    pool: FramePool,
     failed: Arc<AtomicBool>,
     error: Arc<Mutex<Option<OutputError>>>,
     handle: Option<JoinHandle<Stats>>,
@@ -644,15 +648,11 @@ impl OutputWriter {
         write_summary(dir, &Summary::started(&meta))?;
 
         let pool_size = (POOL_BYTES / Frame::bytes(layout)).clamp(2, POOL_MAX);
+        // The queue holds every frame there is, so `submit` never waits (a waiting send
+        // would allocate its wait context); `frame` waits on the pool's futex instead.
         let (tx, rx) = sync_channel::<Frame>(pool_size);
-        let (pool_tx, pool_rx) = sync_channel::<Frame>(pool_size);
-        // The first blocking wait on a channel allocates (a thread-local wait context and
-        // the channel's waiter list, both kept afterwards): wait once here, on the empty
-        // pool, so that `frame()` never allocates on this thread.
-        let _ = pool_rx.recv_timeout(std::time::Duration::from_micros(1));
-        for _ in 0..pool_size {
-            pool_tx.send(Frame::new(layout)).expect("pool has room");
-        }
+        let (pool, pool_return) =
+            FramePool::new((0..pool_size).map(|_| Frame::new(layout)).collect());
         let failed = Arc::new(AtomicBool::new(false));
         let error = Arc::new(Mutex::new(None));
         #[cfg(test)]
@@ -681,7 +681,7 @@ impl OutputWriter {
         };
         let handle = std::thread::Builder::new()
             .name("mbdc-output".into())
-            .spawn(move || worker.run(rx, pool_tx))
+            .spawn(move || worker.run(rx, pool_return))
             .map_err(|e| OutputError::io(OutputErrorKind::Create, dir, e))?;
         Ok(OutputWriter {
             dir: dir.to_path_buf(),
@@ -689,7 +689,7 @@ impl OutputWriter {
             joint_names: layout.joints.iter().map(|j| j.name.clone()).collect(),
             layout_for_fallback: layout.clone(),
             tx: Some(tx),
-            pool: pool_rx,
+            pool,
             failed,
             error,
             handle: Some(handle),
@@ -723,14 +723,13 @@ impl OutputWriter {
     /// A frame buffer to fill (its previous content is stale: overwrite every field).
     /// Blocks while every buffer is queued for writing (holding more than
     /// [`OutputWriter::pool_size`] frames at once would therefore wait forever).
-    /// Allocation-free on the thread that created the writer; on another thread the
-    /// first wait allocates the thread's wait context once. If the writer thread has
-    /// died, a fresh frame is allocated so the run can continue to its end and report
-    /// (the next `submit` returns the error).
+    /// Allocation-free, on any thread. If the writer thread has died, a fresh frame is
+    /// allocated so the run can continue to its end and report (the next `submit`
+    /// returns the error).
     pub fn frame(&mut self) -> Frame {
-        match self.pool.recv() {
-            Ok(f) => f,
-            Err(_) => Frame::new(&self.layout_for_fallback),
+        match self.pool.take() {
+            Some(f) => f,
+            None => Frame::new(&self.layout_for_fallback),
         }
     }
 
