@@ -76,7 +76,7 @@ pub mod study;
 pub use analysis::{beam_model, coordinates, effects, input_limits, step_limits, topology};
 pub use contract::{math, scene, system};
 pub use driver::{assemble, energy, output, run_loop};
-pub use kernels::{beam_element, contact, fn1, forces, joints, tree_joints};
+pub use kernels::{beam_element, contact, fn1, forces, joints, solid, tree_joints};
 
 /// The linear-algebra crate of the runtime's types ([`system::Pose`] etc.), re-exported so
 /// that generated code depends on this crate only.

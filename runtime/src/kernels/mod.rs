@@ -20,4 +20,5 @@ pub mod contact;
 pub mod fn1;
 pub mod forces;
 pub mod joints;
+pub mod solid;
 pub mod tree_joints;

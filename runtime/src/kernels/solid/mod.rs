@@ -1,0 +1,181 @@
+//! Solid finite elements: the internal force of one element of a mesh at one
+//! configuration, for the explicit central-difference method (notes D §1.1, blueprint §6).
+//!
+//! Every kernel is a pure function of the element's reference coordinates `x0`, its nodal
+//! displacements `u` and velocities `v` (world components, m and m/s; 2-D elements use x
+//! and y and ignore z), and writes an [`ElementResponse`]: the internal nodal forces (to be
+//! *subtracted* from the external forces), the element's mean stress and strain, and the
+//! hourglass power. No stiffness matrix is formed (the method is matrix-free).
+//!
+//! Element types ([`ElementKind`]): `bar2` (truss), `tri3` and `quad4` (plane stress or
+//! plane strain, with a thickness), `tet4`, `hex8` with one-point integration and
+//! Flanagan–Belytschko hourglass control or fully integrated 2×2×2 (optionally B-bar).
+//! Kinematics ([`Kinematics`]): small strain (linear elastic) or total-Lagrangian
+//! St Venant–Kirchhoff (large rotations).
+//!
+//! Beside the forces: [`lumped_masses`] (the element's share of mass per node),
+//! [`max_frequency`] (an upper bound of the element's highest undamped frequency with
+//! lumped mass, for the central-difference limit `h ≤ 2/ω_max`), and [`shape_check`] (the
+//! smallest Jacobian determinant, to refuse degenerate or inverted elements).
+
+use crate::contract::scene::ElementKind;
+
+/// Largest number of nodes of an element.
+pub const MAX_NODES: usize = 8;
+
+/// The strain measure and stress law.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum Kinematics {
+    /// Small strain, linear elastic: `ε = sym ∇u`, `σ = λ tr ε I + 2μ ε`.
+    #[default]
+    SmallStrain,
+    /// Total Lagrangian St Venant–Kirchhoff: Green–Lagrange `E`, second Piola–Kirchhoff
+    /// `S = λ tr E I + 2μ E`, nodal forces from `P = F S`. Exact under rigid rotations.
+    TotalLagrangian,
+}
+
+/// In-plane behaviour of 2-D elements.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum Plane {
+    /// σ_zz = 0.
+    #[default]
+    Stress,
+    /// ε_zz = 0.
+    Strain,
+}
+
+/// Flanagan–Belytschko hourglass control of one-point hex8 (and quad4) elements.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Hourglass {
+    /// Viscous: forces proportional to the hourglass velocity modes (dissipative).
+    Viscous {
+        /// Dimensionless coefficient (typically 0.05–0.15).
+        coefficient: f64,
+    },
+    /// Stiffness: forces proportional to the hourglass displacement modes (stores energy).
+    Stiffness {
+        /// Dimensionless coefficient (typically 0.05–0.15).
+        coefficient: f64,
+    },
+}
+
+/// Quadrature of hex8 (and quad4) elements.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Integration {
+    /// One point with hourglass control.
+    Reduced(Hourglass),
+    /// Full (2×2×2, 2×2), optionally with the B-bar (mean dilatation) against locking.
+    Full {
+        /// Mean volumetric strain over the element.
+        bbar: bool,
+    },
+}
+
+impl Default for Integration {
+    fn default() -> Self {
+        Integration::Full { bbar: false }
+    }
+}
+
+/// Isotropic elastic constants.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Elastic {
+    /// First Lamé constant, Pa.
+    pub lambda: f64,
+    /// Shear modulus, Pa.
+    pub mu: f64,
+    /// Young's modulus, Pa (bars use it).
+    pub e: f64,
+    /// Density, kg/m³.
+    pub rho: f64,
+}
+
+/// How one element type is evaluated.
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
+pub struct ElementOptions {
+    /// Strain measure.
+    pub kinematics: Kinematics,
+    /// 2-D elements: plane stress or strain.
+    pub plane: Plane,
+    /// hex8 and quad4 quadrature.
+    pub integration: Integration,
+    /// 2-D elements: thickness (m); bars: cross-section area (m²); unused by solids.
+    pub thickness: f64,
+}
+
+/// What one element evaluation produces.
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
+pub struct ElementResponse {
+    /// Internal nodal forces (N), first `kind.nodes()` rows used.
+    pub f: [[f64; 3]; MAX_NODES],
+    /// Volume-mean stress, Voigt order xx yy zz yz xz xy (Pa): Cauchy for small strain,
+    /// second Piola–Kirchhoff for total Lagrangian. Bars: xx is the axial stress.
+    pub stress: [f64; 6],
+    /// Volume-mean strain, same order, tensor (not engineering) shear components.
+    pub strain: [f64; 6],
+    /// Elastic strain energy of the element (J), hourglass stiffness energy excluded.
+    pub strain_energy: f64,
+    /// Hourglass forces' stored energy (stiffness form, J).
+    pub hourglass_energy: f64,
+    /// Power of the hourglass forces `Σ f_hg · v` (W): for the viscous form, the rate at
+    /// which hourglass control dissipates energy.
+    pub hourglass_power: f64,
+    /// Smallest Jacobian determinant of the deformed element over its integration points
+    /// (≤ 0: the element has inverted).
+    pub min_jacobian: f64,
+}
+
+/// A degenerate element (zero or negative Jacobian in its reference configuration).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Degenerate {
+    /// Smallest Jacobian determinant found.
+    pub min_jacobian: f64,
+    /// Local index of the node (corner) where it was found.
+    pub corner: usize,
+}
+
+// The helper fills in: one file per element type (bar2.rs, tri3.rs, quad4.rs, tet4.rs,
+// hex8.rs), material.rs, frequency.rs, and these entry points (dispatch on `kind`).
+
+/// Internal forces, stress, strain and energies of one element.
+pub fn respond(
+    kind: ElementKind,
+    opts: &ElementOptions,
+    mat: &Elastic,
+    x0: &[[f64; 3]],
+    u: &[[f64; 3]],
+    v: &[[f64; 3]],
+    out: &mut ElementResponse,
+) {
+    let _ = (kind, opts, mat, x0, u, v, out);
+    todo!("helper")
+}
+
+/// Each node's share of the element's mass (kg), first `kind.nodes()` used.
+pub fn lumped_masses(
+    kind: ElementKind,
+    opts: &ElementOptions,
+    rho: f64,
+    x0: &[[f64; 3]],
+) -> [f64; MAX_NODES] {
+    let _ = (kind, opts, rho, x0);
+    todo!("helper")
+}
+
+/// An upper bound of the element's highest undamped angular frequency with lumped mass
+/// (rad/s), including the hourglass stiffness of reduced elements.
+pub fn max_frequency(
+    kind: ElementKind,
+    opts: &ElementOptions,
+    mat: &Elastic,
+    x0: &[[f64; 3]],
+) -> f64 {
+    let _ = (kind, opts, mat, x0);
+    todo!("helper")
+}
+
+/// The element's reference shape: `Err` when a Jacobian determinant is zero or negative.
+pub fn shape_check(kind: ElementKind, x0: &[[f64; 3]]) -> Result<f64, Degenerate> {
+    let _ = (kind, x0);
+    todo!("helper")
+}
