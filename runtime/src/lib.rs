@@ -73,8 +73,10 @@ pub mod interp;
 pub mod linalg;
 pub mod study;
 
-pub use analysis::{beam_model, coordinates, effects, input_limits, step_limits, topology};
-pub use contract::{math, scene, system};
+pub use analysis::{
+    beam_model, coordinates, effects, input_limits, mesh_model, step_limits, topology,
+};
+pub use contract::{math, mesh_layout, scene, system};
 pub use driver::{assemble, energy, output, run_loop};
 pub use kernels::{beam_element, contact, fn1, forces, joints, solid, tree_joints};
 

@@ -82,6 +82,7 @@ fn chain(n: usize) -> (Layout, Vec<RowJac>) {
         row_joint: (0..rows).map(|r| r / 3).collect(),
         row_kind: vec![RowKind::Holonomic; rows],
         beams: Default::default(),
+        meshes: Default::default(),
         joints,
         rows,
     };

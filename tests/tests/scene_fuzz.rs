@@ -1048,7 +1048,7 @@ fn names_an_item(scene: &Scene, e: &InterpError) -> bool {
         InterpError::Beam { name, reason } => {
             !reason.is_empty() && scene.beams.iter().any(|b| &b.name == name)
         }
-        InterpError::Mesh(n) => scene.meshes.iter().any(|m| &m.name == n),
+        InterpError::Mesh { name, .. } => scene.meshes.iter().any(|m| &m.name == name),
         InterpError::Invalid { item, name, reason } => {
             !reason.is_empty()
                 && match *item {

@@ -4,6 +4,8 @@
 //!   freedom, redundant joints (rank of the constraint Jacobian at t = 0).
 //! - [`beam_model`]: beams as bodies — nodes with their lumped inertia, clamps and pins as
 //!   joints, and the table of elements between them.
+//! - [`mesh_model`]: finite-element meshes flattened for the explicit method (nodes,
+//!   element blocks, lumped masses, conditions as node tables) and their critical step.
 //! - [`coordinates`]: the independent coordinates natural partitioning uses, per tree joint
 //!   (what `mbdc check --topology` prints).
 //! - [`effects`]: the effects a scene uses (gravity, springs, contact, closed loops, …): the
@@ -18,5 +20,6 @@ pub mod beam_model;
 pub mod coordinates;
 pub mod effects;
 pub mod input_limits;
+pub mod mesh_model;
 pub mod step_limits;
 pub mod topology;

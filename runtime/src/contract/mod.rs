@@ -8,6 +8,7 @@
 //! - [`joint_geom`]: the constant geometry of one joint (`JointGeom`), and
 //!   [`joint_kernel`]: the one enum of joint kernels (`JointKernel`) that the interpreter,
 //!   the compiled tables, the code generator and natural partitioning share.
+//! - [`mesh_layout`]: finite-element meshes flattened for the explicit method (`MeshLayout`).
 //! - [`math`]: rotation math (Euler parameters, rotation matrices, the Cayley update).
 //!
 //! **Imports nothing else of the crate.** Everything above builds on these types; nothing
@@ -16,5 +17,6 @@
 pub mod joint_geom;
 pub mod joint_kernel;
 pub mod math;
+pub mod mesh_layout;
 pub mod scene;
 pub mod system;

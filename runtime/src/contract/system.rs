@@ -155,6 +155,9 @@ pub struct Layout {
     pub row_kind: Vec<RowKind>,
     /// The flexible beams whose nodes are among the bodies (empty for a rigid scene).
     pub beams: BeamLayout,
+    /// The finite-element meshes (empty for a scene without meshes). Shared: it can be
+    /// large, and the layout is copied (output writer, integrators).
+    pub meshes: std::sync::Arc<super::mesh_layout::MeshLayout>,
 }
 
 /// The flexible beams of a system (notes B). Each beam node is one of the layout's bodies,

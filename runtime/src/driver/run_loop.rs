@@ -229,7 +229,7 @@ struct EnergyWatch {
 
 impl EnergyWatch {
     fn new<S: System>(sys: &S, st: &State) -> EnergyWatch {
-        let kinetic = energy::kinetic_energy(sys.layout(), &st.twist);
+        let kinetic = energy::kinetic_energy(sys.layout(), &st.twist) + st.mesh_kinetic();
         let potential = sys.potential_energy(st.t, &st.pose) + st.strain_energy();
         EnergyWatch {
             e0: kinetic + potential,
@@ -243,7 +243,7 @@ impl EnergyWatch {
 
     /// Take the energies of `st` into the ranges.
     fn observe<S: System>(&mut self, sys: &S, st: &State) {
-        self.kinetic = energy::kinetic_energy(sys.layout(), &st.twist);
+        self.kinetic = energy::kinetic_energy(sys.layout(), &st.twist) + st.mesh_kinetic();
         self.potential = sys.potential_energy(st.t, &st.pose) + st.strain_energy();
         self.pe_lo = self.pe_lo.min(self.potential);
         self.pe_hi = self.pe_hi.max(self.potential);
@@ -649,6 +649,7 @@ fn step_failure<S: System>(sys: &S, e: &StepError, t: f64, step: u64, h: f64) ->
             format!("joint '{}'", layout.joints[layout.row_joint[*row]].name)
         }
         StepError::Beam { beam, element, .. } => format!("beam '{beam}', element {element}"),
+        StepError::Mesh { mesh, place, .. } => format!("mesh '{mesh}', {place}"),
         _ => "system".into(),
     };
     let (quantity, value, cause, hint) = match e {
@@ -669,6 +670,12 @@ fn step_failure<S: System>(sys: &S, e: &StepError, t: f64, step: u64, h: f64) ->
             f64::NAN,
             format!("{e}"),
             format!("an element folded or turned by half a revolution in one step: reduce the step (now {h:.3e} s), add elements, or check the loads"),
+        ),
+        StepError::Mesh { .. } => (
+            "mesh element".to_string(),
+            f64::NAN,
+            format!("{e}"),
+            format!("the mesh deformed too far for its elements (an element turned inside out), or the run diverged: reduce the step (now {h:.3e} s), refine the mesh where it happened, or check the loads"),
         ),
         StepError::NoConvergence {
             what,
@@ -742,6 +749,29 @@ impl Observer for ToWriter<'_> {
                 row[10 + k] = st.kappa[k];
             }
         }
+        let m = &f.state.mesh;
+        if m.u.len() == out.mesh_u.len() {
+            out.mesh_u.copy_from_slice(&m.u);
+            out.mesh_v.copy_from_slice(&m.v);
+            out.mesh_stress.copy_from_slice(&m.stress);
+            out.mesh_strain.copy_from_slice(&m.strain);
+        } else {
+            // the initial frame: at rest, undeformed
+            out.mesh_u.fill([0.0; 3]);
+            out.mesh_v.fill([0.0; 3]);
+            out.mesh_stress.fill([0.0; 6]);
+            out.mesh_strain.fill([0.0; 6]);
+        }
+        let e = &m.energy;
+        out.mesh_energy = [
+            e.kinetic,
+            e.strain,
+            e.hourglass,
+            e.foundation,
+            e.external_work,
+            e.dissipated,
+            e.kinetic + e.balance_potential(),
+        ];
         if let Err(e) = self.writer.submit(out) {
             self.error = Some(e);
         }

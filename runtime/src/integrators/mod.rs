@@ -16,6 +16,7 @@
 
 pub mod beam_forces;
 pub mod common;
+pub mod mesh_dynamics;
 pub mod natural;
 pub mod partitioning;
 pub mod staggered;
@@ -24,6 +25,7 @@ pub(crate) mod testsys;
 pub mod trapezoid;
 
 use crate::contract::system::{Pose, System, Twist};
+pub use mesh_dynamics::{MeshEnergy, MeshState};
 
 /// The synchronized state at a step time.
 #[derive(Clone, Debug, Default)]
@@ -41,12 +43,24 @@ pub struct State {
     /// The flexible beams' element states at these positions (empty without beams, and in
     /// a state not produced by an integrator: the elements then start stress-free).
     pub beams: Vec<crate::kernels::beam_element::ElementState>,
+    /// The finite-element meshes' state (empty without meshes, and in a state not produced
+    /// by an integrator: the meshes then start at rest, undeformed).
+    pub mesh: MeshState,
 }
 
 impl State {
-    /// The elastic strain energy of the beams in this state (J; 0 without beams).
+    /// The energy of the flexible parts beside the bodies' kinetic and potential energy
+    /// (J): the beams' strain energy, and the meshes' kinetic energy and their
+    /// [`MeshEnergy::balance_potential`] (strain, hourglass and foundation energy, less the
+    /// work of loads and prescribed displacements, plus what hourglass control dissipated),
+    /// so that the total stays constant in a run.
     pub fn strain_energy(&self) -> f64 {
-        beam_forces::total_strain_energy(&self.beams)
+        beam_forces::total_strain_energy(&self.beams) + self.mesh.energy.balance_potential()
+    }
+
+    /// The meshes' kinetic energy (J; 0 without meshes).
+    pub fn mesh_kinetic(&self) -> f64 {
+        self.mesh.energy.kinetic
     }
 }
 
@@ -60,6 +74,7 @@ impl State {
             lambda: vec![0.0; rows],
             active: vec![true; rows],
             beams: Vec::new(),
+            mesh: MeshState::default(),
         }
     }
 
@@ -142,7 +157,12 @@ pub fn make<'a, S: System + 'a>(
             )));
         }
     }
-    Ok(match method {
+    let meshes = sys.layout().meshes.clone();
+    let rigid = sys.layout().bodies() > 0 || sys.layout().rows > 0;
+    let inner: Option<Box<dyn Integrator<S> + 'a>> = if !rigid {
+        None
+    } else {
+        Some(match method {
         M::Staggered(o) => Box::new(staggered::TwoStage::staggered(sys, h, o, start)?),
         M::Baumgarte { alpha, beta } => Box::new(staggered::TwoStage::baumgarte(
             sys, h, *alpha, *beta, start,
@@ -168,7 +188,78 @@ pub fn make<'a, S: System + 'a>(
                 .with_pcg_limit(*max_iterations),
         ),
         M::StateTime { .. } => return Err(StartError::Unsupported(method.name())),
-    })
+        })
+    };
+    if meshes.is_empty() {
+        return inner.ok_or_else(|| {
+            StartError::Invalid("the scene has nothing to simulate (no body, beam or mesh)".into())
+        });
+    }
+    if matches!(method, M::StateTime { .. }) {
+        return Err(StartError::Unsupported(method.name()));
+    }
+    if let Some(c) = crate::analysis::mesh_model::critical_step(&meshes) {
+        if h > c.step {
+            return Err(StartError::Invalid(format!(
+                "mesh '{}': the step {h:.3e} s is above the central-difference limit {:.3e} s = 2/ω_max of its stiffest element, {} (ω_max ≤ {:.4e} rad/s); reduce the step below it (a step of 0.9× the limit leaves a margin)",
+                c.mesh, c.step, c.place, c.omega
+            )));
+        }
+    }
+    let mesh = mesh_dynamics::MeshDynamics::new(meshes, h, start.t, &start.mesh)?;
+    Ok(Box::new(WithMeshes {
+        inner,
+        mesh,
+        name: method.name(),
+        h,
+    }))
+}
+
+/// A rigid (and beam) integrator, if the scene has bodies, and the meshes' explicit
+/// integrator, stepped together with the same step. The meshes are not coupled to the
+/// bodies (a scene that ties them is refused by the compiler until ties land).
+struct WithMeshes<'a, S: System> {
+    inner: Option<Box<dyn Integrator<S> + 'a>>,
+    mesh: mesh_dynamics::MeshDynamics,
+    name: &'static str,
+    h: f64,
+}
+
+impl<S: System> Integrator<S> for WithMeshes<'_, S> {
+    fn name(&self) -> &'static str {
+        self.name
+    }
+    fn time(&self) -> f64 {
+        self.mesh.time()
+    }
+    fn step_size(&self) -> f64 {
+        self.h
+    }
+    fn step(&mut self, sys: &S) -> Result<StepInfo, StepError> {
+        let info = match &mut self.inner {
+            Some(i) => i.step(sys)?,
+            None => StepInfo::default(),
+        };
+        self.mesh.step()?;
+        Ok(info)
+    }
+    fn state(&self, sys: &S, out: &mut State) {
+        if let Some(i) = &self.inner {
+            i.state(sys, out);
+        } else {
+            out.t = self.mesh.time();
+        }
+        self.mesh.state(&mut out.mesh);
+    }
+    fn active(&self) -> &[bool] {
+        self.inner.as_ref().map_or(&[], |i| i.active())
+    }
+    fn stats(&self) -> Vec<(&'static str, f64)> {
+        self.inner.as_ref().map_or_else(Vec::new, |i| i.stats())
+    }
+    fn take_notice(&mut self) -> Option<String> {
+        self.inner.as_mut().and_then(|i| i.take_notice())
+    }
 }
 
 /// The refusal of a step above a beam's explicit limit, if any: per beam, the limit of its
@@ -243,6 +334,16 @@ pub enum StepError {
         beam: String,
         /// The element's index within its beam (0 at the start).
         element: usize,
+        /// What went wrong.
+        message: String,
+    },
+    /// A mesh element inverted, or a mesh node's acceleration is not finite.
+    #[error("mesh '{mesh}', {place}: {message}")]
+    Mesh {
+        /// The mesh's name.
+        mesh: String,
+        /// The element (index, nodes, centroid) or node.
+        place: String,
         /// What went wrong.
         message: String,
     },

@@ -29,11 +29,13 @@
 //! Flexible beams: their nodes are bodies and their clamps and pins joints
 //! ([`crate::analysis::beam_model`]); the element forces are the integrator's.
 //!
-//! Not simulated (clear errors from [`Interp::new`]): finite-element meshes (not part of
-//! the runtime yet), box–box, sphere–box and plane–plane
+//! Finite-element meshes: flattened by [`crate::analysis::mesh_model`] into the layout's
+//! `meshes`; their nodes are not bodies, the integrator advances them.
+//!
+//! Not simulated (clear errors from [`Interp::new`]): box–box, sphere–box and plane–plane
 //! contact, bodies with singular or indefinite inertia.
 
-use crate::analysis::{beam_model, input_limits};
+use crate::analysis::{beam_model, input_limits, mesh_model};
 use crate::contract::math::{quat, rotation, vec3};
 use crate::contract::scene::{
     Attachment, BodyRef, Fn1, ForceFrame, ForceKind, JointKind, Scene, Shape,
@@ -61,9 +63,15 @@ pub enum InterpError {
         /// What is wrong.
         reason: String,
     },
-    /// The scene has a finite-element mesh.
-    #[error("mesh '{0}': finite-element meshes are not simulated by the rigid-body runtime yet")]
-    Mesh(String),
+    /// A finite-element mesh cannot be simulated (a degenerate element, a node without
+    /// mass, a load on a set without faces).
+    #[error("mesh '{name}': {reason}")]
+    Mesh {
+        /// The mesh's name.
+        name: String,
+        /// What is wrong, with the element, its nodes and location where one is at fault.
+        reason: String,
+    },
     /// An item is invalid or unsupported.
     #[error("{item} '{name}': {reason}")]
     Invalid {
@@ -350,21 +358,28 @@ impl Interp {
     /// the scene's bodies, their clamps and pins its joints, and the [`Layout`]'s `beams`
     /// lists the elements, whose forces the integrator adds.
     pub fn new(scene: &Scene) -> Result<Interp, InterpError> {
-        if let Some(m) = scene.meshes.first() {
-            return Err(InterpError::Mesh(m.name.clone()));
-        }
+        let meshes = mesh_model::build(&scene.meshes).map_err(|e| InterpError::Mesh {
+            name: e.mesh,
+            reason: e.reason,
+        })?;
+        let meshes = std::sync::Arc::new(meshes);
         if scene.beams.is_empty() {
-            return Interp::build(scene, BeamLayout::default());
+            return Interp::build(scene, BeamLayout::default(), meshes);
         }
         let ex = beam_model::expand(scene).map_err(|e| InterpError::Beam {
             name: e.beam,
             reason: e.reason,
         })?;
-        Interp::build(&ex.scene, ex.beams)
+        Interp::build(&ex.scene, ex.beams, meshes)
     }
 
-    /// [`Interp::new`] for a scene without beams, with the beams' layout to record.
-    fn build(scene: &Scene, beams: BeamLayout) -> Result<Interp, InterpError> {
+    /// [`Interp::new`] for a scene without beams, with the beams' and meshes' layouts to
+    /// record.
+    fn build(
+        scene: &Scene,
+        beams: BeamLayout,
+        meshes: std::sync::Arc<crate::contract::mesh_layout::MeshLayout>,
+    ) -> Result<Interp, InterpError> {
         check_scene(scene)?;
         let nb = scene.bodies.len();
 
@@ -875,6 +890,7 @@ impl Interp {
             row_joint,
             row_kind,
             beams,
+            meshes,
         };
         // `applied` depends on the state unless every term is a world-frame force at the
         // mass centre or a body-frame torque (gravity never does).

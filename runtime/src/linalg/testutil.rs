@@ -79,6 +79,7 @@ pub fn layout_from_joints(
         row_joint,
         row_kind: vec![RowKind::Holonomic; first],
         beams: Default::default(),
+        meshes: Default::default(),
     }
 }
 

@@ -191,3 +191,24 @@ pub(crate) fn beams_rows(out: &mut String, layout: &Layout, f: &Frame) {
         out.push('\n');
     }
 }
+
+/// The `mesh_energy.csv` header.
+pub fn mesh_energy_header() -> String {
+    let mut h = String::from("t");
+    for c in super::MESH_ENERGY_COLUMNS {
+        h.push(',');
+        h.push_str(c);
+    }
+    h.push('\n');
+    h
+}
+
+/// Append a `mesh_energy.csv` row.
+pub(crate) fn mesh_energy_row(out: &mut String, f: &Frame) {
+    push_f64(out, f.t);
+    for x in f.mesh_energy {
+        out.push(',');
+        push_f64(out, x);
+    }
+    out.push('\n');
+}

@@ -44,6 +44,8 @@
 //! | `energy.csv` | `t, kinetic, potential, total, drift, px, py, pz, Lx, Ly, Lz` (momenta world, angular about the world origin) |
 //! | `constraints.csv` | `t`, then per joint `<joint>.violation`, `<joint>.velocity_violation` (joints with nonholonomic rows only), `<joint>.lambda0 …` (one per row) |
 //! | `beams.pvd`, `beams/beams_NNNNNN.vtp` | scenes with beams: a ParaView time series, one VTK PolyData file per frame (nodes as points, elements as lines, the section quantities as cell data; see `vtk.rs`) |
+//! | `mesh.pvd`, `mesh/mesh_NNNNNN.vtu` | scenes with meshes: a ParaView time series, one VTK UnstructuredGrid per frame (reference points with `displacement` and `velocity`, elements with `stress`, `strain`, `von_mises`; see `vtu.rs`) |
+//! | `mesh_energy.csv` | scenes with meshes: `t, kinetic, strain, hourglass, foundation, external_work, dissipated, balance` (J): `balance = kinetic + strain + hourglass + foundation − external_work + dissipated`, constant up to the method's error |
 //! | `beams.csv` | scenes with beams: one row per element and frame, `t, beam, element, s` (arc length of the element's midpoint, unstrained), section forces `N1 N2 N3` (axial, shear 2, shear 3; N), moments `M1 M2 M3` (torsion, bending 2, bending 3; N·m), strains `gamma1 gamma2 gamma3` and curvatures `kappa1 kappa2 kappa3` (1/m), all in the element's convected frame |
 //!
 //! Only the files the [`OutputSpec`] asks for are created.
@@ -58,6 +60,9 @@ mod csv;
 mod frame_pool;
 mod json;
 mod vtk;
+mod vtu;
+
+pub use vtu::{von_mises, MESH_ENERGY_COLUMNS};
 
 use std::collections::BTreeMap;
 use std::fs::File;
@@ -109,6 +114,16 @@ pub struct Frame {
     pub lambda: Vec<f64>,
     /// Per beam element: `s`, then the [`BEAM_COLUMNS`] (empty without beams).
     pub sections: Vec<[f64; 13]>,
+    /// Per mesh node: displacement, m (empty without meshes).
+    pub mesh_u: Vec<[f64; 3]>,
+    /// Per mesh node: velocity, m/s.
+    pub mesh_v: Vec<[f64; 3]>,
+    /// Per mesh element: mean stress, Pa (Voigt xx yy zz yz xz xy).
+    pub mesh_stress: Vec<[f64; 6]>,
+    /// Per mesh element: mean strain (tensor shear).
+    pub mesh_strain: Vec<[f64; 6]>,
+    /// The meshes' energies, J, in the order of [`MESH_ENERGY_COLUMNS`].
+    pub mesh_energy: [f64; 7],
 }
 
 impl Frame {
@@ -127,6 +142,11 @@ impl Frame {
             velocity_violation: vec![0.0; layout.joints.len()],
             lambda: vec![0.0; layout.rows],
             sections: vec![[0.0; 13]; layout.beams.elements.len()],
+            mesh_u: vec![[0.0; 3]; layout.meshes.nodes()],
+            mesh_v: vec![[0.0; 3]; layout.meshes.nodes()],
+            mesh_stress: vec![[0.0; 6]; layout.meshes.elements()],
+            mesh_strain: vec![[0.0; 6]; layout.meshes.elements()],
+            mesh_energy: [0.0; 7],
         }
     }
 
@@ -171,6 +191,8 @@ impl Frame {
             + layout.bodies() * (std::mem::size_of::<Pose>() + std::mem::size_of::<Twist>())
             + (2 * layout.joints.len() + layout.rows) * 8
             + layout.beams.elements.len() * 13 * 8
+            + layout.meshes.nodes() * 6 * 8
+            + layout.meshes.elements() * 12 * 8
     }
 }
 
@@ -495,6 +517,8 @@ struct Worker {
     constraints: Option<CsvFile>,
     beams: Option<CsvFile>,
     vtk: Option<vtk::BeamSeries>,
+    mesh_energy: Option<CsvFile>,
+    vtu: Option<vtu::MeshSeries>,
     stats: Stats,
     failed: Arc<AtomicBool>,
     error: Arc<Mutex<Option<OutputError>>>,
@@ -507,6 +531,7 @@ impl Worker {
             &mut self.energy,
             &mut self.constraints,
             &mut self.beams,
+            &mut self.mesh_energy,
         ]
         .into_iter()
         .flatten()
@@ -537,7 +562,16 @@ impl Worker {
         if let Some(c) = &mut self.beams {
             csv::beams_rows(&mut c.buf, &self.layout, f);
         }
+        if let Some(c) = &mut self.mesh_energy {
+            csv::mesh_energy_row(&mut c.buf, f);
+        }
         if let Some(v) = &mut self.vtk {
+            if let Err(e) = v.write_frame(&self.layout, f) {
+                self.fail(e);
+                return;
+            }
+        }
+        if let Some(v) = &mut self.vtu {
             if let Err(e) = v.write_frame(&self.layout, f) {
                 self.fail(e);
                 return;
@@ -562,6 +596,11 @@ impl Worker {
         }
         if err.is_none() {
             if let Some(v) = &self.vtk {
+                err = v.write_index().err();
+            }
+        }
+        if err.is_none() {
+            if let Some(v) = &self.vtu {
                 err = v.write_index().err();
             }
         }
@@ -645,6 +684,12 @@ impl OutputWriter {
         let vtk = (!layout.beams.is_empty())
             .then(|| vtk::BeamSeries::create(dir))
             .transpose()?;
+        let mesh_energy = (!layout.meshes.is_empty())
+            .then(|| CsvFile::create(dir.join("mesh_energy.csv"), &csv::mesh_energy_header()))
+            .transpose()?;
+        let vtu = (!layout.meshes.is_empty())
+            .then(|| vtu::MeshSeries::create(dir, layout))
+            .transpose()?;
         write_summary(dir, &Summary::started(&meta))?;
 
         let pool_size = (POOL_BYTES / Frame::bytes(layout)).clamp(2, POOL_MAX);
@@ -656,7 +701,7 @@ impl OutputWriter {
         let failed = Arc::new(AtomicBool::new(false));
         let error = Arc::new(Mutex::new(None));
         #[cfg(test)]
-        let limits = [&bodies, &energy, &constraints, &beams]
+        let limits = [&bodies, &energy, &constraints, &beams, &mesh_energy]
             .into_iter()
             .flatten()
             .map(|c| {
@@ -675,6 +720,8 @@ impl OutputWriter {
             constraints,
             beams,
             vtk,
+            mesh_energy,
+            vtu,
             stats: Stats::default(),
             failed: failed.clone(),
             error: error.clone(),

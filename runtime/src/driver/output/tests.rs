@@ -36,6 +36,7 @@ fn layout() -> Layout {
         row_joint: vec![0, 0, 0, 0, 0, 1, 1, 1, 2],
         row_kind,
         beams: Default::default(),
+        meshes: Default::default(),
     }
 }
 

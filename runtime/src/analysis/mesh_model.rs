@@ -1,0 +1,505 @@
+//! Meshes for the explicit method: the scene's meshes flattened into a
+//! [`MeshLayout`] (nodes numbered once, one element block per mesh, lumped masses, the
+//! boundary conditions and loads as node tables, the node → element-slot plan), and the
+//! critical step of the central-difference method over all elements.
+//!
+//! - Lumped mass: each element's [`solid::lumped_masses`] summed at its nodes.
+//! - `fix` and `displace`: per node component, the last condition written wins (`fix`
+//!   after `displace` fixes; `displace` with a `free` component leaves that component as
+//!   it was). 2-D meshes have their z components fixed.
+//! - `traction` and `foundation`: on the set's faces, each face node gets its share
+//!   `∫ N_a dA` of the face area (2-D: edge length × thickness; bars: the end's area);
+//!   the foundation's normal is the area-weighted outward normal of the faces at the node.
+//! - `body_force`: node `a` gets `b · ∫ N_a dV` (the lumped mass with ρ = 1).
+//! - Critical step: `h ≤ 2 / max_e ω_e` with `ω_e` the element bound of
+//!   [`solid::max_frequency`] (Irons: the global highest frequency is below the largest
+//!   element one). Congruent elements (a generated mesh's translates) are evaluated once.
+
+use std::collections::HashMap;
+
+use crate::contract::mesh_layout::{
+    ElementBlock, FoundationSpring, LoadGroup, MeshLayout, Prescribed,
+};
+use crate::contract::scene::{ElementKind, Fn1, Material, Mesh, MeshCondition};
+use crate::kernels::solid::{self, Elastic, ElementOptions, MAX_NODES};
+
+/// Why a mesh cannot be simulated.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[error("mesh '{mesh}': {reason}")]
+pub struct MeshError {
+    /// The mesh's name.
+    pub mesh: String,
+    /// What is wrong, with the element, its nodes and location where one is at fault.
+    pub reason: String,
+}
+
+/// The elastic constants of a material, for the kernels.
+pub fn elastic(m: &Material) -> Elastic {
+    let lambda = m.e * m.nu / ((1.0 + m.nu) * (1.0 - 2.0 * m.nu));
+    let mu = m.e / (2.0 * (1.0 + m.nu));
+    Elastic {
+        lambda,
+        mu,
+        e: m.e,
+        rho: m.rho,
+    }
+}
+
+/// How the elements of a block are evaluated.
+pub fn options(b: &ElementBlock) -> ElementOptions {
+    ElementOptions {
+        thickness: b.thickness,
+        plane: match b.kind {
+            ElementKind::Tri3PlaneStrain | ElementKind::Quad4PlaneStrain => solid::Plane::Strain,
+            _ => solid::Plane::Stress,
+        },
+        ..ElementOptions::default()
+    }
+}
+
+/// The reference coordinates of element `e` of block `b`.
+pub fn element_x0(l: &MeshLayout, b: &ElementBlock, e: usize) -> [[f64; 3]; MAX_NODES] {
+    let mut x = [[0.0; 3]; MAX_NODES];
+    for (a, &n) in b.element_nodes(e).iter().enumerate() {
+        x[a] = l.x0[n as usize];
+    }
+    x
+}
+
+/// A readable place of element `e` of block `b`: its index, nodes (mesh numbering) and
+/// centroid.
+pub fn element_place(l: &MeshLayout, b: &ElementBlock, e: usize) -> String {
+    let nodes = b.element_nodes(e);
+    let mut c = [0.0; 3];
+    for &n in nodes {
+        for k in 0..3 {
+            c[k] += l.x0[n as usize][k] / nodes.len() as f64;
+        }
+    }
+    let local: Vec<String> = nodes
+        .iter()
+        .map(|&n| (n as usize - b.first_node).to_string())
+        .collect();
+    format!(
+        "element {e} (nodes {}, centroid ({:.4}, {:.4}, {:.4}) m)",
+        local.join(", "),
+        c[0],
+        c[1],
+        c[2]
+    )
+}
+
+/// Build the layout of `meshes` (empty input gives an empty layout).
+///
+/// # Errors
+/// A degenerate or inverted element (its index, nodes and centroid), a node index out of
+/// range, a material or thickness that is not positive and finite.
+pub fn build(meshes: &[Mesh]) -> Result<MeshLayout, MeshError> {
+    let mut l = MeshLayout::default();
+    let mut first_slot = 0usize;
+    let mut first_element = 0usize;
+    for m in meshes {
+        let err = |reason: String| MeshError {
+            mesh: m.name.clone(),
+            reason,
+        };
+        let mat = &m.material;
+        if !(mat.e.is_finite() && mat.e > 0.0 && mat.rho.is_finite() && mat.rho > 0.0) {
+            return Err(err(format!(
+                "the material needs a positive, finite E and rho (E = {}, rho = {})",
+                mat.e, mat.rho
+            )));
+        }
+        if !(mat.nu > -1.0 && mat.nu < 0.5) {
+            return Err(err(format!(
+                "Poisson's ratio must lie in (-1, 0.5), got {}",
+                mat.nu
+            )));
+        }
+        let thickness = if m.kind.dim() == 2 || m.kind == ElementKind::Bar2 {
+            m.thickness
+        } else {
+            1.0
+        };
+        if !(thickness.is_finite() && thickness > 0.0) {
+            return Err(err(format!(
+                "the thickness (area for bars) must be positive and finite, got {thickness}"
+            )));
+        }
+        let first_node = l.x0.len();
+        let npe = m.kind.nodes();
+        let mut conn = Vec::with_capacity(m.elements.len() * npe);
+        for (e, el) in m.elements.iter().enumerate() {
+            if el.len() != npe {
+                return Err(err(format!(
+                    "element {e} has {} nodes, a {:?} has {npe}",
+                    el.len(),
+                    m.kind
+                )));
+            }
+            for &n in el {
+                if n >= m.nodes.len() {
+                    return Err(err(format!(
+                        "element {e} refers to node {n}, but the mesh has {} nodes",
+                        m.nodes.len()
+                    )));
+                }
+                conn.push((first_node + n) as u32);
+            }
+        }
+        l.x0.extend_from_slice(&m.nodes);
+        l.mass.resize(l.x0.len(), 0.0);
+        l.constrained.resize(l.x0.len(), [false; 3]);
+        let block = ElementBlock {
+            name: m.name.clone(),
+            kind: m.kind,
+            material: *mat,
+            thickness,
+            first_node,
+            nodes: m.nodes.len(),
+            conn,
+            first_slot,
+            first_element,
+        };
+        let opts = options(&block);
+        // Shapes and masses.
+        let mut volume_share = vec![0.0; m.nodes.len()];
+        for e in 0..block.elements() {
+            let x = element_x0(&l, &block, e);
+            if let Err(d) = solid::shape_check(m.kind, &x[..npe]) {
+                return Err(err(format!(
+                    "{} is degenerate or inverted: its Jacobian determinant is {:.3e} at its node {} (check the node order: counter-clockwise in 2-D, hex8 bottom face counter-clockwise seen from above)",
+                    element_place(&l, &block, e),
+                    d.min_jacobian,
+                    d.corner
+                )));
+            }
+            let v = solid::lumped_masses(m.kind, &opts, 1.0, &x[..npe]);
+            for (a, &n) in block.element_nodes(e).iter().enumerate() {
+                volume_share[n as usize - first_node] += v[a];
+            }
+        }
+        for (i, &v) in volume_share.iter().enumerate() {
+            l.mass[first_node + i] = mat.rho * v;
+        }
+        let unused = volume_share.iter().filter(|&&v| v == 0.0).count();
+        if unused > 0 {
+            let i = volume_share.iter().position(|&v| v == 0.0).unwrap_or(0);
+            return Err(err(format!(
+                "{unused} node(s) belong to no element (the first is node {i} at ({:.4}, {:.4}, {:.4}) m): a node without mass cannot be integrated; remove it",
+                m.nodes[i][0], m.nodes[i][1], m.nodes[i][2]
+            )));
+        }
+        if m.kind.dim() == 2 {
+            for c in &mut l.constrained[first_node..] {
+                c[2] = true;
+            }
+        }
+        conditions(&mut l, m, &block, &volume_share).map_err(err)?;
+        first_slot += block.elements() * npe;
+        first_element += block.elements();
+        l.blocks.push(block);
+    }
+    plan(&mut l);
+    Ok(l)
+}
+
+/// The boundary conditions and loads of one mesh into the layout's tables.
+fn conditions(
+    l: &mut MeshLayout,
+    m: &Mesh,
+    block: &ElementBlock,
+    volume_share: &[f64],
+) -> Result<(), String> {
+    let first = block.first_node;
+    // Per node component: None free, Some(None) fixed, Some(Some(f)) prescribed.
+    let mut dof: HashMap<(usize, usize), Option<Fn1>> = HashMap::new();
+    for c in &m.conditions {
+        match c {
+            MeshCondition::Fixed { set } => {
+                for &n in &m.node_sets[*set].nodes {
+                    for k in 0..3 {
+                        dof.insert((n, k), None);
+                    }
+                }
+            }
+            MeshCondition::Displacement { set, value } => {
+                for &n in &m.node_sets[*set].nodes {
+                    for (k, f) in value.iter().enumerate() {
+                        if let Some(f) = f {
+                            dof.insert((n, k), Some(f.clone()));
+                        }
+                    }
+                }
+            }
+            MeshCondition::NodalLoad { set, value } => {
+                let nodes: Vec<u32> = m.node_sets[*set]
+                    .nodes
+                    .iter()
+                    .map(|&n| (first + n) as u32)
+                    .collect();
+                l.loads.push(LoadGroup {
+                    value: value.clone(),
+                    weights: vec![1.0; nodes.len()],
+                    nodes,
+                });
+            }
+            MeshCondition::Traction { set, value } => {
+                let shares = face_shares(l, m, block, *set)?;
+                l.loads.push(LoadGroup {
+                    value: value.clone(),
+                    nodes: shares.iter().map(|s| s.0).collect(),
+                    weights: shares.iter().map(|s| s.1).collect(),
+                });
+            }
+            MeshCondition::BodyForce { value } => {
+                if l.body_force.is_empty() {
+                    l.body_force = vec![[0.0; 3]; l.x0.len()];
+                }
+                l.body_force.resize(l.x0.len(), [0.0; 3]);
+                for (i, &v) in volume_share.iter().enumerate() {
+                    for k in 0..3 {
+                        l.body_force[first + i][k] += v * value[k];
+                    }
+                }
+            }
+            MeshCondition::Foundation { set, modulus } => {
+                for (node, area, n) in face_shares(l, m, block, *set)? {
+                    l.foundation.push(FoundationSpring {
+                        node,
+                        k: modulus * area,
+                        n,
+                    });
+                }
+            }
+        }
+    }
+    let mut keys: Vec<_> = dof.into_iter().collect();
+    keys.sort_by_key(|(k, _)| *k);
+    for ((n, k), f) in keys {
+        l.constrained[first + n][k] = true;
+        if let Some(f) = f {
+            l.prescribed.push(Prescribed {
+                node: (first + n) as u32,
+                dof: k as u8,
+                value: f,
+            });
+        }
+    }
+    Ok(())
+}
+
+/// Per node of the set's faces: (global node, its share of the faces' area, the unit
+/// area-weighted outward normal), in node order.
+fn face_shares(
+    l: &MeshLayout,
+    m: &Mesh,
+    block: &ElementBlock,
+    set: usize,
+) -> Result<Vec<(u32, f64, [f64; 3])>, String> {
+    let s = &m.node_sets[set];
+    if s.faces.is_empty() {
+        return Err(format!(
+            "set '{}' bounds no face (a traction or foundation acts on the boundary faces whose nodes all lie in the set)",
+            s.name
+        ));
+    }
+    let mut acc: HashMap<u32, (f64, [f64; 3])> = HashMap::new();
+    for &(e, f) in &s.faces {
+        let nodes = block.element_nodes(e);
+        let face = m.kind.faces()[f];
+        let x: Vec<[f64; 3]> = face.iter().map(|&a| l.x0[nodes[a] as usize]).collect();
+        let (shares, normal) = face_integrals(block, face, &x, &element_x0(l, block, e));
+        for (i, &a) in face.iter().enumerate() {
+            let g = nodes[a];
+            let entry = acc.entry(g).or_insert((0.0, [0.0; 3]));
+            entry.0 += shares[i];
+            for k in 0..3 {
+                entry.1[k] += shares[i] * normal[k];
+            }
+        }
+    }
+    let mut out: Vec<_> = acc
+        .into_iter()
+        .map(|(g, (a, n))| {
+            let len = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
+            let unit = if len > 0.0 {
+                [n[0] / len, n[1] / len, n[2] / len]
+            } else {
+                [0.0; 3]
+            };
+            (g, a, unit)
+        })
+        .collect();
+    out.sort_by_key(|s| s.0);
+    Ok(out)
+}
+
+fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
+}
+fn norm(a: [f64; 3]) -> f64 {
+    (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt()
+}
+
+/// A face's nodal area shares `∫ N_a dA` and its unit outward normal.
+fn face_integrals(
+    block: &ElementBlock,
+    face: &[usize],
+    x: &[[f64; 3]],
+    ex: &[[f64; 3]; MAX_NODES],
+) -> (Vec<f64>, [f64; 3]) {
+    match x.len() {
+        1 => {
+            // A bar's end: the area, along the bar outward.
+            let other = ex[1 - face[0]];
+            let d = sub(x[0], other);
+            let len = norm(d);
+            (
+                vec![block.thickness],
+                [d[0] / len, d[1] / len, d[2] / len],
+            )
+        }
+        2 => {
+            // An edge of a counter-clockwise 2-D element: outward normal (dy, -dx).
+            let d = sub(x[1], x[0]);
+            let len = norm(d);
+            let a = len * block.thickness;
+            (vec![a / 2.0; 2], [d[1] / len, -d[0] / len, 0.0])
+        }
+        3 => {
+            let n = cross(sub(x[1], x[0]), sub(x[2], x[0]));
+            let a = norm(n) / 2.0;
+            (vec![a / 3.0; 3], [n[0] / (2.0 * a), n[1] / (2.0 * a), n[2] / (2.0 * a)])
+        }
+        _ => {
+            // A bilinear quadrilateral face, 2×2 Gauss points.
+            let g = 1.0 / 3f64.sqrt();
+            let mut shares = vec![0.0; 4];
+            let mut total = [0.0; 3];
+            for (xi, eta) in [(-g, -g), (g, -g), (g, g), (-g, g)] {
+                let nn = [
+                    (1.0 - xi) * (1.0 - eta) / 4.0,
+                    (1.0 + xi) * (1.0 - eta) / 4.0,
+                    (1.0 + xi) * (1.0 + eta) / 4.0,
+                    (1.0 - xi) * (1.0 + eta) / 4.0,
+                ];
+                let dxi = [
+                    -(1.0 - eta) / 4.0,
+                    (1.0 - eta) / 4.0,
+                    (1.0 + eta) / 4.0,
+                    -(1.0 + eta) / 4.0,
+                ];
+                let deta = [
+                    -(1.0 - xi) / 4.0,
+                    -(1.0 + xi) / 4.0,
+                    (1.0 + xi) / 4.0,
+                    (1.0 - xi) / 4.0,
+                ];
+                let mut t1 = [0.0; 3];
+                let mut t2 = [0.0; 3];
+                for a in 0..4 {
+                    for k in 0..3 {
+                        t1[k] += dxi[a] * x[a][k];
+                        t2[k] += deta[a] * x[a][k];
+                    }
+                }
+                let n = cross(t1, t2);
+                let da = norm(n);
+                for a in 0..4 {
+                    shares[a] += nn[a] * da;
+                }
+                for k in 0..3 {
+                    total[k] += n[k];
+                }
+            }
+            let len = norm(total);
+            (shares, [total[0] / len, total[1] / len, total[2] / len])
+        }
+    }
+}
+
+/// The node → element-slot plan: for every node, the slots of the elements that touch it,
+/// in increasing order.
+fn plan(l: &mut MeshLayout) {
+    let n = l.x0.len();
+    let mut count = vec![0u32; n + 1];
+    for b in &l.blocks {
+        for &g in &b.conn {
+            count[g as usize + 1] += 1;
+        }
+    }
+    for i in 0..n {
+        count[i + 1] += count[i];
+    }
+    let mut next = count.clone();
+    let mut slots = vec![0u32; l.total_slots()];
+    for b in &l.blocks {
+        for (i, &g) in b.conn.iter().enumerate() {
+            let at = &mut next[g as usize];
+            slots[*at as usize] = (b.first_slot + i) as u32;
+            *at += 1;
+        }
+    }
+    l.first = count;
+    l.slots = slots;
+}
+
+/// The central-difference limit of a mesh system.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CriticalStep {
+    /// `2 / ω_max` (s).
+    pub step: f64,
+    /// The highest element frequency bound (rad/s).
+    pub omega: f64,
+    /// The mesh whose element sets it.
+    pub mesh: String,
+    /// That element, its nodes and location.
+    pub place: String,
+}
+
+/// The critical step over all elements (`None` without elements).
+pub fn critical_step(l: &MeshLayout) -> Option<CriticalStep> {
+    let mut best: Option<(f64, usize, usize)> = None;
+    for (bi, b) in l.blocks.iter().enumerate() {
+        let opts = options(b);
+        let mat = elastic(&b.material);
+        let npe = b.kind.nodes();
+        let mut cache: HashMap<Vec<i64>, f64> = HashMap::new();
+        for e in 0..b.elements() {
+            let x = element_x0(l, b, e);
+            // Congruent translates share their frequency: key on the coordinates relative
+            // to node 0, to 1e-9 of the element's size.
+            let size = (1..npe)
+                .map(|a| norm(sub(x[a], x[0])))
+                .fold(0.0f64, f64::max)
+                .max(f64::MIN_POSITIVE);
+            let key: Vec<i64> = (1..npe)
+                .flat_map(|a| (0..3).map(move |k| (a, k)))
+                .map(|(a, k)| ((x[a][k] - x[0][k]) / size * 1e9).round() as i64)
+                .chain(std::iter::once(size.to_bits() as i64 >> 20))
+                .collect();
+            let w = *cache
+                .entry(key)
+                .or_insert_with(|| solid::max_frequency(b.kind, &opts, &mat, &x[..npe]));
+            if best.is_none_or(|(bw, _, _)| w > bw) {
+                best = Some((w, bi, e));
+            }
+        }
+    }
+    let (w, bi, e) = best?;
+    let b = &l.blocks[bi];
+    Some(CriticalStep {
+        step: 2.0 / w,
+        omega: w,
+        mesh: b.name.clone(),
+        place: element_place(l, b, e),
+    })
+}

@@ -1,0 +1,123 @@
+//! The finite-element meshes of a system, flattened for the explicit method: every node of
+//! every mesh numbered once, one type-homogeneous element block per mesh with its
+//! connectivity, the lumped nodal masses, and the boundary conditions and loads as tables
+//! over nodes. Built once from a scene by [`crate::analysis::mesh_model`]; the topological
+//! plan (which element slots each node sums, notes D §5: fixed in time) is precomputed.
+
+use super::scene::{ElementKind, Fn1, Material};
+
+/// The meshes of a system (empty for a scene without meshes).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct MeshLayout {
+    /// One block per mesh, in scene order.
+    pub blocks: Vec<ElementBlock>,
+    /// Reference coordinates of every node (world, m), mesh after mesh.
+    pub x0: Vec<[f64; 3]>,
+    /// Lumped mass of every node (kg).
+    pub mass: Vec<f64>,
+    /// Per node and component: the displacement is fixed or prescribed (not integrated).
+    pub constrained: Vec<[bool; 3]>,
+    /// Prescribed displacements `u(t)` on node components.
+    pub prescribed: Vec<Prescribed>,
+    /// Loads: a force function times a per-node weight.
+    pub loads: Vec<LoadGroup>,
+    /// Constant nodal forces (body forces; N), empty when there are none.
+    pub body_force: Vec<[f64; 3]>,
+    /// Winkler foundation springs at nodes.
+    pub foundation: Vec<FoundationSpring>,
+    /// Node → element force slots, compressed rows: node `n` sums the element forces at
+    /// slots `slots[first[n]..first[n + 1]]`, in increasing slot order (a fixed summation
+    /// order: results do not depend on the number of threads).
+    pub first: Vec<u32>,
+    /// See `first`. A slot is `block.first_slot + element · nodes_per_element + local`.
+    pub slots: Vec<u32>,
+}
+
+impl MeshLayout {
+    /// Whether the system has no mesh.
+    pub fn is_empty(&self) -> bool {
+        self.blocks.is_empty()
+    }
+    /// Number of nodes of all meshes.
+    pub fn nodes(&self) -> usize {
+        self.x0.len()
+    }
+    /// Number of element force slots (Σ elements × nodes per element).
+    pub fn total_slots(&self) -> usize {
+        self.blocks
+            .last()
+            .map_or(0, |b| b.first_slot + b.elements() * b.kind.nodes())
+    }
+    /// Number of elements of all meshes.
+    pub fn elements(&self) -> usize {
+        self.blocks.iter().map(|b| b.elements()).sum()
+    }
+}
+
+/// The elements of one mesh (one element type and material).
+#[derive(Clone, Debug, PartialEq)]
+pub struct ElementBlock {
+    /// The mesh's name.
+    pub name: String,
+    /// Element type.
+    pub kind: ElementKind,
+    /// Material.
+    pub material: Material,
+    /// 2-D elements: thickness (m); bars: area (m²); solids: unused (1).
+    pub thickness: f64,
+    /// Global node index of the mesh's node 0 (its nodes are consecutive).
+    pub first_node: usize,
+    /// Number of the mesh's nodes.
+    pub nodes: usize,
+    /// Connectivity, `kind.nodes()` global node indices per element.
+    pub conn: Vec<u32>,
+    /// Index of the block's first element force slot.
+    pub first_slot: usize,
+    /// Index of the block's first element in the system's element numbering.
+    pub first_element: usize,
+}
+
+impl ElementBlock {
+    /// Number of elements.
+    pub fn elements(&self) -> usize {
+        self.conn.len() / self.kind.nodes()
+    }
+    /// The global node indices of element `e`.
+    pub fn element_nodes(&self, e: usize) -> &[u32] {
+        let n = self.kind.nodes();
+        &self.conn[e * n..(e + 1) * n]
+    }
+}
+
+/// A prescribed displacement component.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Prescribed {
+    /// Global node index.
+    pub node: u32,
+    /// Component (0, 1, 2).
+    pub dof: u8,
+    /// The displacement `u(t)` (m).
+    pub value: Fn1,
+}
+
+/// A load over nodes: node `nodes[i]` gets `weights[i] · value(t)`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LoadGroup {
+    /// The force (nodal loads; N) or traction (Pa) components.
+    pub value: [Fn1; 3],
+    /// Global node indices.
+    pub nodes: Vec<u32>,
+    /// Weights: 1 for nodal loads, the node's share of the loaded area (m²) for tractions.
+    pub weights: Vec<f64>,
+}
+
+/// A Winkler foundation spring: force `−k (n·u) n` at a node.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FoundationSpring {
+    /// Global node index.
+    pub node: u32,
+    /// Stiffness (N/m): modulus × the node's share of the supported area.
+    pub k: f64,
+    /// Unit normal of the supported faces at the node (reference configuration).
+    pub n: [f64; 3],
+}
