@@ -76,6 +76,8 @@ pub struct Rec {
     pub velocity_violation: Vec<f64>,
     /// The beams' element states (empty without beams).
     pub beams: Vec<mbdc_runtime::beam_element::ElementState>,
+    /// The meshes' state (empty without meshes, and in the initial frame).
+    pub mesh: mbdc_runtime::integrators::MeshState,
 }
 
 impl Rec {
@@ -132,6 +134,7 @@ impl Observer for Recorder {
             violation: f.violation.to_vec(),
             velocity_violation: f.velocity_violation.to_vec(),
             beams: f.state.beams.clone(),
+            mesh: f.state.mesh.clone(),
         });
     }
 }

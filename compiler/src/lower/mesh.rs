@@ -523,6 +523,9 @@ impl<'a> Lowerer<'a> {
             ));
         };
         let shape = func.name.as_str();
+        if shape == "line" {
+            return self.generate_line(func, args, sc, e.span, kind);
+        }
         let is_rect = match shape {
             "rect" => true,
             "box" => false,
@@ -530,7 +533,7 @@ impl<'a> Lowerer<'a> {
                 return Err(self.report(
                     Diagnostic::error(codes::UNKNOWN_NAME, format!("unknown mesh generator `{other}`"))
                         .primary(sc.file, func.span, "")
-                        .help("generators: rect(origin:, size:, divisions:) for tri3/quad4, box(origin:, size:, divisions:) for tet4/hex8"),
+                        .help("generators: line(origin:, size:, divisions:) for bar2, rect(origin:, size:, divisions:) for tri3/quad4, box(origin:, size:, divisions:) for tet4/hex8"),
                 ))
             }
         };
@@ -547,7 +550,7 @@ impl<'a> Lowerer<'a> {
                 )
                 .primary(sc.file, func.span, "")
                 .help(if kind == ElementKind::Bar2 {
-                    "bar2 meshes are imported from .msh files".to_string()
+                    "use `line(origin:, size:, divisions:)` for bar2".to_string()
                 } else if is_rect {
                     "use `box(...)` for tet4 and hex8".to_string()
                 } else {
@@ -670,6 +673,77 @@ impl<'a> Lowerer<'a> {
                 kind == ElementKind::Tet4,
             )
         })
+    }
+
+    /// `line(origin: VEC, size: VEC, divisions: N)`: N bar2 elements from `origin` to
+    /// `origin + size`, nodes numbered from the origin.
+    fn generate_line(
+        &mut self,
+        func: &mbdc_dsl::ast::Ident,
+        args: &'a [mbdc_dsl::ast::Arg],
+        sc: &Scope,
+        span: Span,
+        kind: ElementKind,
+    ) -> R<(Vec<Vec3>, Vec<Vec<usize>>)> {
+        if kind != ElementKind::Bar2 {
+            return Err(self.report(
+                Diagnostic::error(
+                    codes::MESH,
+                    format!("`line` cannot generate {} elements", element_name(kind)),
+                )
+                .primary(sc.file, func.span, "")
+                .help("`line` generates bar2 elements; use `rect(...)` for tri3 and quad4, `box(...)` for tet4 and hex8"),
+            ));
+        }
+        let a = self.call_args(
+            func,
+            args,
+            &[req("origin"), req("size"), req("divisions")],
+            sc,
+            span,
+        )?;
+        let (Some(oe), Some(se), Some(de)) = (a[0], a[1], a[2]) else {
+            return Err(Reported);
+        };
+        let origin = self.vec23(oe, sc, Dim::LENGTH, "a mesh origin");
+        let size = self.vec23(se, sc, Dim::LENGTH, "a mesh size");
+        let div = match self.eval(de, sc).and_then(|v| self.scalar_of(v, de.span, sc)) {
+            Ok(q)
+                if q.dim.is_none()
+                    && q.constant()
+                        .is_some_and(|c| c >= 1.0 && c.fract() == 0.0 && c <= MAX_MESH_ITEMS as f64) =>
+            {
+                Ok(q.constant().unwrap_or(1.0) as usize)
+            }
+            Ok(_) => Err(self.report(
+                Diagnostic::error(
+                    codes::INVALID_VALUE,
+                    format!("`divisions` of a line is one positive integer, at most {}", super::expand::fmt_count(MAX_MESH_ITEMS)),
+                )
+                .primary(sc.file, de.span, ""),
+            )),
+            Err(r) => Err(r),
+        };
+        let (origin, size, div) = (origin?, size?, div?);
+        if size.iter().all(|&c| c == 0.0) {
+            return Err(self.report(
+                Diagnostic::error(codes::INVALID_VALUE, "a line's size must not be zero")
+                    .primary(sc.file, se.span, "")
+                    .help("`size` is the vector from the first node to the last"),
+            ));
+        }
+        let nodes = (0..=div)
+            .map(|i| {
+                let f = i as f64 / div as f64;
+                [
+                    origin[0] + f * size[0],
+                    origin[1] + f * size[1],
+                    origin[2] + f * size[2],
+                ]
+            })
+            .collect();
+        let elements = (0..div).map(|i| vec![i, i + 1]).collect();
+        Ok((nodes, elements))
     }
 
     fn import_msh(
