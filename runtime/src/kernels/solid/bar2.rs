@@ -58,8 +58,8 @@ pub fn respond(
     };
     let s = mat.e * strain;
     out.f = [[0.0; 3]; super::MAX_NODES];
-    for i in 0..3 {
-        out.f[1][i] = s * area * dir[i];
+    for (i, di) in dir.iter().enumerate() {
+        out.f[1][i] = s * area * di;
         out.f[0][i] = -out.f[1][i];
     }
     out.stress = [s, 0.0, 0.0, 0.0, 0.0, 0.0];

@@ -15,8 +15,8 @@ use crate::contract::scene::ElementKind;
 fn smallest(d: &[f64], modulo: usize) -> (f64, usize) {
     let mut best = (f64::INFINITY, 0);
     for (i, &x) in d.iter().enumerate() {
-        // `!(x >= best)` also catches NaN.
-        if !(x >= best.0) {
+        // NaN counts as the smallest (it is refused).
+        if x.is_nan() || x < best.0 {
             best = (x, i % modulo);
         }
     }
@@ -37,6 +37,7 @@ pub(super) fn shape_check(kind: ElementKind, x0: &[[f64; 3]]) -> Result<f64, Deg
         ElementKind::Hex8 => smallest(&hex8::jacobians(super::nodes(x0)), 8),
     };
     if min_jacobian > 0.0 {
+        // NaN fails this test and is refused.
         Ok(min_jacobian)
     } else {
         Err(Degenerate {
