@@ -17,6 +17,21 @@
 //! [`max_frequency`] (an upper bound of the element's highest undamped frequency with
 //! lumped mass, for the central-difference limit `h ≤ 2/ω_max`), and [`shape_check`] (the
 //! smallest Jacobian determinant, to refuse degenerate or inverted elements).
+//!
+//! Files, one concept each: `material` (Lamé constants, plane-stress reduction
+//! `λ* = 2λμ/(λ+2μ)`, stress and energy density for both kinematics), `continuum`
+//! (isoparametric gradients, the quadrature loop, B-bar), `hourglass` (Flanagan–Belytschko,
+//! its coefficients documented there), the element types [`bar2`], [`tri3`], [`quad4`],
+//! [`tet4`], [`hex8`] (public, with fixed-size-array entry points for monomorphised loops),
+//! `frequency` ([`max_frequency`]), `shape` ([`shape_check`]) and `tests`.
+//!
+//! Conventions: forces are internal (`M a = f_ext − f`); stress and strain are volume means
+//! in Voigt order `xx yy zz yz xz xy` with tensor shear strains; 2-D kinds take their plane
+//! mode from the kind, not from [`ElementOptions::plane`], multiply by
+//! [`ElementOptions::thickness`] and report σ_zz = 0 (plane stress) or λ tr ε (plane strain);
+//! bars use the thickness as the cross-section area. `min_jacobian` and [`shape_check`]
+//! report `det J` of the map from the parent element (bar2 `L/2`, tri3 `2A`, tet4 `6V`,
+//! quad4/hex8 with ξ ∈ [−1, 1]: `A/4`, `V/8` on parallelograms).
 
 use crate::contract::scene::ElementKind;
 
