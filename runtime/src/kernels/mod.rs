@@ -11,9 +11,13 @@
 //! - [`forces`]: applied forces (gravity, springs, dampers, actuators) and their energy.
 //! - [`contact`]: penalty contact laws (sphere–plane, sphere–sphere, box–plane).
 //! - [`fn1`]: time functions (`f(t)` trees) with their first two derivatives.
+//! - [`solid`]: solid finite elements (bar2, tri3, quad4, tet4, hex8; small strain or total
+//!   Lagrangian St Venant–Kirchhoff; one-point hex8/quad4 with Flanagan–Belytschko hourglass
+//!   control or full integration with B-bar): internal force, stress, lumped mass, element
+//!   frequency bound and shape check.
 //!
-//! Where new element kernels go: a solid element's internal force is a kernel here
-//! (`solid_element.rs`), as the beam element's is.
+//! Where new element kernels go: an element's internal force is a kernel here, as the beam
+//! element's ([`beam_element`]) and the solid elements' ([`solid`]) are.
 
 pub mod beam_element;
 pub mod contact;

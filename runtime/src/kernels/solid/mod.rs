@@ -17,8 +17,36 @@
 //! [`max_frequency`] (an upper bound of the element's highest undamped frequency with
 //! lumped mass, for the central-difference limit `h ≤ 2/ω_max`), and [`shape_check`] (the
 //! smallest Jacobian determinant, to refuse degenerate or inverted elements).
+//!
+//! Files, one concept each: `material` (Lamé constants, plane-stress reduction
+//! `λ* = 2λμ/(λ+2μ)`, stress and energy density for both kinematics), `continuum`
+//! (isoparametric gradients, the quadrature loop, B-bar), `hourglass` (Flanagan–Belytschko,
+//! its coefficients documented there), the element types [`bar2`], [`tri3`], [`quad4`],
+//! [`tet4`], [`hex8`] (public, with fixed-size-array entry points for monomorphised loops),
+//! `frequency` ([`max_frequency`]), `shape` ([`shape_check`]) and `tests`.
+//!
+//! Conventions: forces are internal (`M a = f_ext − f`); stress and strain are volume means
+//! in Voigt order `xx yy zz yz xz xy` with tensor shear strains; 2-D kinds take their plane
+//! mode from the kind, not from [`ElementOptions::plane`], multiply by
+//! [`ElementOptions::thickness`] and report σ_zz = 0 (plane stress) or λ tr ε (plane strain);
+//! bars use the thickness as the cross-section area. `min_jacobian` and [`shape_check`]
+//! report `det J` of the map from the parent element (bar2 `L/2`, tri3 `2A`, tet4 `6V`,
+//! quad4/hex8 with ξ ∈ [−1, 1]: `A/4`, `V/8` on parallelograms).
 
 use crate::contract::scene::ElementKind;
+
+pub mod bar2;
+mod continuum;
+mod frequency;
+pub mod hex8;
+mod hourglass;
+mod material;
+pub mod quad4;
+mod shape;
+#[cfg(test)]
+mod tests;
+pub mod tet4;
+pub mod tri3;
 
 /// Largest number of nodes of an element.
 pub const MAX_NODES: usize = 8;
@@ -95,7 +123,8 @@ pub struct Elastic {
 pub struct ElementOptions {
     /// Strain measure.
     pub kinematics: Kinematics,
-    /// 2-D elements: plane stress or strain.
+    /// 2-D elements: plane stress or strain. Not read by the kernels: the plane mode of the
+    /// [`ElementKind`] (`Tri3PlaneStress`, …) is authoritative; kept for callers' records.
     pub plane: Plane,
     /// hex8 and quad4 quadrature.
     pub integration: Integration,
@@ -134,10 +163,29 @@ pub struct Degenerate {
     pub corner: usize,
 }
 
-// The helper fills in: one file per element type (bar2.rs, tri3.rs, quad4.rs, tet4.rs,
-// hex8.rs), material.rs, frequency.rs, and these entry points (dispatch on `kind`).
+/// The first `N` rows of a node slice as an array (panics when the slice is shorter).
+#[inline]
+fn nodes<const N: usize>(x: &[[f64; 3]]) -> &[[f64; 3]; N] {
+    x[..N]
+        .try_into()
+        .expect("solid element: fewer node rows than kind.nodes()")
+}
+
+/// The plane mode of a 2-D kind (authoritative over [`ElementOptions::plane`]).
+fn plane_of(kind: ElementKind) -> Plane {
+    match kind {
+        ElementKind::Tri3PlaneStrain | ElementKind::Quad4PlaneStrain => Plane::Strain,
+        _ => Plane::Stress,
+    }
+}
 
 /// Internal forces, stress, strain and energies of one element.
+///
+/// `x0`, `u`, `v` hold at least `kind.nodes()` rows. Dispatches to the per-type kernels
+/// ([`bar2::respond`], [`tri3::respond`], [`quad4::respond`], [`tet4::respond`],
+/// [`hex8::respond`]), which take fixed-size arrays and may be called directly from
+/// monomorphised loops. No allocation. For 2-D kinds the plane mode comes from the kind and
+/// `opts.plane` is ignored.
 pub fn respond(
     kind: ElementKind,
     opts: &ElementOptions,
@@ -147,35 +195,78 @@ pub fn respond(
     v: &[[f64; 3]],
     out: &mut ElementResponse,
 ) {
-    let _ = (kind, opts, mat, x0, u, v, out);
-    todo!("helper")
+    match kind {
+        ElementKind::Bar2 => bar2::respond(opts, mat, nodes(x0), nodes(u), nodes(v), out),
+        ElementKind::Tri3PlaneStress | ElementKind::Tri3PlaneStrain => tri3::respond(
+            opts,
+            mat,
+            plane_of(kind),
+            nodes(x0),
+            nodes(u),
+            nodes(v),
+            out,
+        ),
+        ElementKind::Quad4PlaneStress | ElementKind::Quad4PlaneStrain => quad4::respond(
+            opts,
+            mat,
+            plane_of(kind),
+            nodes(x0),
+            nodes(u),
+            nodes(v),
+            out,
+        ),
+        ElementKind::Tet4 => tet4::respond(opts, mat, nodes(x0), nodes(u), nodes(v), out),
+        ElementKind::Hex8 => hex8::respond(opts, mat, nodes(x0), nodes(u), nodes(v), out),
+    }
 }
 
 /// Each node's share of the element's mass (kg), first `kind.nodes()` used.
+///
+/// Row-sum lumping `m_a = ∫ ρ N_a dV`: equal shares for bar2 (`ρ A L/2`), tri3
+/// (`ρ t A/3`) and tet4 (`ρ V/4`); quad4 and hex8 integrate `N_a` exactly (equal shares on
+/// parallelograms / parallelepipeds). `opts.thickness` is the bar area or the 2-D thickness.
 pub fn lumped_masses(
     kind: ElementKind,
     opts: &ElementOptions,
     rho: f64,
     x0: &[[f64; 3]],
 ) -> [f64; MAX_NODES] {
-    let _ = (kind, opts, rho, x0);
-    todo!("helper")
+    let mut m = [0.0; MAX_NODES];
+    let t = opts.thickness;
+    match kind {
+        ElementKind::Bar2 => m[..2].copy_from_slice(&bar2::lumped_masses(rho, t, nodes(x0))),
+        ElementKind::Tri3PlaneStress | ElementKind::Tri3PlaneStrain => {
+            m[..3].copy_from_slice(&tri3::lumped_masses(rho, t, nodes(x0)))
+        }
+        ElementKind::Quad4PlaneStress | ElementKind::Quad4PlaneStrain => {
+            m[..4].copy_from_slice(&quad4::lumped_masses(rho, t, nodes(x0)))
+        }
+        ElementKind::Tet4 => m[..4].copy_from_slice(&tet4::lumped_masses(rho, nodes(x0))),
+        ElementKind::Hex8 => m[..8].copy_from_slice(&hex8::lumped_masses(rho, nodes(x0))),
+    }
+    m
 }
 
 /// An upper bound of the element's highest undamped angular frequency with lumped mass
 /// (rad/s), including the hourglass stiffness of reduced elements.
+///
+/// bar2: exactly `2c/L`. Others: `√λ_max(M^{-1/2} K M^{-1/2})` of the small-strain element
+/// stiffness at the reference configuration (raised by 1e-10 relative against round-off).
+/// The mesh's stable central-difference step is `h ≤ 2 / max_e ω_e` (Irons' bound: the
+/// assembled highest frequency never exceeds the largest element one). Runs once per
+/// element before a run; no heap allocation.
 pub fn max_frequency(
     kind: ElementKind,
     opts: &ElementOptions,
     mat: &Elastic,
     x0: &[[f64; 3]],
 ) -> f64 {
-    let _ = (kind, opts, mat, x0);
-    todo!("helper")
+    frequency::max_frequency(kind, opts, mat, x0)
 }
 
-/// The element's reference shape: `Err` when a Jacobian determinant is zero or negative.
+/// The element's reference shape: `Ok(min det J)`, or `Err` when a Jacobian determinant is
+/// zero or negative (bars: zero length; 2-D elements: also clockwise node order; hex8:
+/// corners, Gauss points and centroid checked).
 pub fn shape_check(kind: ElementKind, x0: &[[f64; 3]]) -> Result<f64, Degenerate> {
-    let _ = (kind, x0);
-    todo!("helper")
+    shape::shape_check(kind, x0)
 }

@@ -1,0 +1,117 @@
+//! Four-node quadrilateral, plane stress or plane strain, thickness `t`; bilinear
+//! isoparametric, nodes counter-clockwise.
+//!
+//! - `Integration::Full { bbar }`: 2×2 Gauss. B-bar (mean dilatation, see `continuum`) is
+//!   applied in plane strain only: plane stress does not lock (σ_zz = 0 leaves the
+//!   thickness free), so `bbar` is ignored there.
+//! - `Integration::Reduced(hg)`: one point with the element-mean gradients (the uniform
+//!   strain quadrilateral of Flanagan & Belytschko, mean computed exactly by 2×2 Gauss) and
+//!   hourglass control on the mode ξη (see `hourglass`).
+//!
+//! `min_jacobian`: the deformed `det J` at the Gauss points (full) or at the centroid
+//! (reduced); `det J = A/4` on a parallelogram. z components of the inputs are ignored.
+
+use super::continuum::{
+    current, det3, finish, flatten, gradients, integrate, jacobian, plane_law, plane_outputs,
+    quad4_dn, quad4_gauss, quad4_n, QUAD4_NODES, V3,
+};
+use super::hourglass::{apply, bb, gammas, QUAD4_H};
+use super::{Elastic, ElementOptions, ElementResponse, Integration, Plane};
+
+/// Element-mean gradients `(1/A) ∫ ∇N_a dA` and the area `A` (exact by 2×2 Gauss).
+pub(super) fn mean_gradients(x0: &[V3; 4]) -> ([V3; 4], f64) {
+    let mut b = [[0.0; 3]; 4];
+    let mut area = 0.0;
+    for q in 0..4 {
+        let (xi, eta) = quad4_gauss(q);
+        let (g, det) = gradients(x0, &quad4_dn(xi, eta), true);
+        area += det;
+        for (ba, ga) in b.iter_mut().zip(g.iter()) {
+            for i in 0..3 {
+                ba[i] += det * ga[i];
+            }
+        }
+    }
+    for ba in b.iter_mut() {
+        for x in ba.iter_mut() {
+            *x /= area;
+        }
+    }
+    (b, area)
+}
+
+/// `det J` at the four corners (x, y only): all positive for a convex counter-clockwise
+/// quadrilateral.
+pub fn corner_jacobians(x: &[[f64; 3]; 4]) -> [f64; 4] {
+    let mut d = [0.0; 4];
+    for (da, s) in d.iter_mut().zip(QUAD4_NODES.iter()) {
+        *da = det3(&jacobian(x, &quad4_dn(s[0], s[1]), true));
+    }
+    d
+}
+
+/// Internal forces, stress and hourglass terms of one quadrilateral; `plane` is
+/// authoritative (`opts.plane` is not read).
+pub fn respond(
+    opts: &ElementOptions,
+    mat: &Elastic,
+    plane: Plane,
+    x0: &[[f64; 3]; 4],
+    u: &[[f64; 3]; 4],
+    v: &[[f64; 3]; 4],
+    out: &mut ElementResponse,
+) {
+    let (x0, u, v) = (flatten(x0), flatten(u), flatten(v));
+    let law = plane_law(opts.kinematics, plane, mat);
+    let t = opts.thickness;
+    let xc = current(&x0, &u);
+    let mut f = [[0.0; 3]; 4];
+    match opts.integration {
+        Integration::Full { bbar } => {
+            let mut g = [[[0.0; 3]; 4]; 4];
+            let mut w = [0.0; 4];
+            let mut min_j = f64::INFINITY;
+            for q in 0..4 {
+                let (xi, eta) = quad4_gauss(q);
+                let dn = quad4_dn(xi, eta);
+                let (gq, det) = gradients(&x0, &dn, true);
+                g[q] = gq;
+                w[q] = det * t;
+                min_j = min_j.min(det3(&jacobian(&xc, &dn, true)));
+            }
+            let sums = integrate(&law, &g, &w, &u, bbar && plane == Plane::Strain, &mut f);
+            finish(&f, &sums, out);
+            out.hourglass_energy = 0.0;
+            out.hourglass_power = 0.0;
+            out.min_jacobian = min_j;
+        }
+        Integration::Reduced(hg) => {
+            let (b, area) = mean_gradients(&x0);
+            let sums = integrate(&law, &[b], &[area * t], &u, false, &mut f);
+            let gam = gammas(&QUAD4_H, &x0, &b);
+            let m = law.lambda + 2.0 * law.mu;
+            let c_s = m * t * area * bb(&b) / 2.0;
+            let c_v = (m * mat.rho).sqrt() * t * area.sqrt() / 2.0;
+            let (e, p) = apply(hg, &gam, c_s, c_v, &u, &v, &mut f);
+            finish(&f, &sums, out);
+            out.hourglass_energy = e;
+            out.hourglass_power = p;
+            out.min_jacobian = det3(&jacobian(&xc, &quad4_dn(0.0, 0.0), true));
+        }
+    }
+    plane_outputs(plane, mat, out);
+}
+
+/// Row-sum lumped masses `ρ t ∫ N_a dA` (exact by 2×2 Gauss; equal quarters on a
+/// parallelogram).
+pub fn lumped_masses(rho: f64, thickness: f64, x0: &[[f64; 3]; 4]) -> [f64; 4] {
+    let mut m = [0.0; 4];
+    for q in 0..4 {
+        let (xi, eta) = quad4_gauss(q);
+        let det = det3(&jacobian(x0, &quad4_dn(xi, eta), true));
+        for (ma, na) in m.iter_mut().zip(quad4_n(xi, eta).iter()) {
+            *ma += rho * thickness * det * na;
+        }
+    }
+    m
+}
