@@ -707,18 +707,25 @@ impl<'a> Lowerer<'a> {
         };
         let origin = self.vec23(oe, sc, Dim::LENGTH, "a mesh origin");
         let size = self.vec23(se, sc, Dim::LENGTH, "a mesh size");
-        let div = match self.eval(de, sc).and_then(|v| self.scalar_of(v, de.span, sc)) {
+        let div = match self
+            .eval(de, sc)
+            .and_then(|v| self.scalar_of(v, de.span, sc))
+        {
             Ok(q)
                 if q.dim.is_none()
-                    && q.constant()
-                        .is_some_and(|c| c >= 1.0 && c.fract() == 0.0 && c <= MAX_MESH_ITEMS as f64) =>
+                    && q.constant().is_some_and(|c| {
+                        c >= 1.0 && c.fract() == 0.0 && c <= MAX_MESH_ITEMS as f64
+                    }) =>
             {
                 Ok(q.constant().unwrap_or(1.0) as usize)
             }
             Ok(_) => Err(self.report(
                 Diagnostic::error(
                     codes::INVALID_VALUE,
-                    format!("`divisions` of a line is one positive integer, at most {}", super::expand::fmt_count(MAX_MESH_ITEMS)),
+                    format!(
+                        "`divisions` of a line is one positive integer, at most {}",
+                        super::expand::fmt_count(MAX_MESH_ITEMS)
+                    ),
                 )
                 .primary(sc.file, de.span, ""),
             )),

@@ -362,10 +362,7 @@ fn face_integrals(
             let other = ex[1 - face[0]];
             let d = sub(x[0], other);
             let len = norm(d);
-            (
-                vec![block.thickness],
-                [d[0] / len, d[1] / len, d[2] / len],
-            )
+            (vec![block.thickness], [d[0] / len, d[1] / len, d[2] / len])
         }
         2 => {
             // An edge of a counter-clockwise 2-D element: outward normal (dy, -dx).
@@ -377,7 +374,10 @@ fn face_integrals(
         3 => {
             let n = cross(sub(x[1], x[0]), sub(x[2], x[0]));
             let a = norm(n) / 2.0;
-            (vec![a / 3.0; 3], [n[0] / (2.0 * a), n[1] / (2.0 * a), n[2] / (2.0 * a)])
+            (
+                vec![a / 3.0; 3],
+                [n[0] / (2.0 * a), n[1] / (2.0 * a), n[2] / (2.0 * a)],
+            )
         }
         _ => {
             // A bilinear quadrilateral face, 2×2 Gauss points.

@@ -63,7 +63,7 @@ mod tests {
             row_joint: vec![],
             row_kind: vec![],
             beams: Default::default(),
-        meshes: Default::default(),
+            meshes: Default::default(),
         }
     }
 

@@ -163,31 +163,33 @@ pub fn make<'a, S: System + 'a>(
         None
     } else {
         Some(match method {
-        M::Staggered(o) => Box::new(staggered::TwoStage::staggered(sys, h, o, start)?),
-        M::Baumgarte { alpha, beta } => Box::new(staggered::TwoStage::baumgarte(
-            sys, h, *alpha, *beta, start,
-        )?),
-        M::Penalty { epsilon } => Box::new(staggered::TwoStage::penalty(sys, h, *epsilon, start)?),
-        M::CoordinatePartitioning => Box::new(partitioning::Partitioning::new(sys, h, start)?),
-        M::ImplicitTrapezoid {
-            tolerance,
-            max_iterations,
-        } => Box::new(trapezoid::Trapezoid::new(
-            sys,
-            h,
-            *tolerance,
-            *max_iterations,
-            start,
-        )?),
-        M::NaturalPartitioning {
-            epsilon,
-            tolerance,
-            max_iterations,
-        } => Box::new(
-            natural::Natural::new(sys, h, *epsilon, *tolerance, start)?
-                .with_pcg_limit(*max_iterations),
-        ),
-        M::StateTime { .. } => return Err(StartError::Unsupported(method.name())),
+            M::Staggered(o) => Box::new(staggered::TwoStage::staggered(sys, h, o, start)?),
+            M::Baumgarte { alpha, beta } => Box::new(staggered::TwoStage::baumgarte(
+                sys, h, *alpha, *beta, start,
+            )?),
+            M::Penalty { epsilon } => {
+                Box::new(staggered::TwoStage::penalty(sys, h, *epsilon, start)?)
+            }
+            M::CoordinatePartitioning => Box::new(partitioning::Partitioning::new(sys, h, start)?),
+            M::ImplicitTrapezoid {
+                tolerance,
+                max_iterations,
+            } => Box::new(trapezoid::Trapezoid::new(
+                sys,
+                h,
+                *tolerance,
+                *max_iterations,
+                start,
+            )?),
+            M::NaturalPartitioning {
+                epsilon,
+                tolerance,
+                max_iterations,
+            } => Box::new(
+                natural::Natural::new(sys, h, *epsilon, *tolerance, start)?
+                    .with_pcg_limit(*max_iterations),
+            ),
+            M::StateTime { .. } => return Err(StartError::Unsupported(method.name())),
         })
     };
     if meshes.is_empty() {

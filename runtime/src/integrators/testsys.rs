@@ -37,7 +37,7 @@ impl RodPendulum {
             row_joint: vec![0; 3],
             row_kind: vec![RowKind::Holonomic; 3],
             beams: Default::default(),
-        meshes: Default::default(),
+            meshes: Default::default(),
         };
         RodPendulum {
             layout,
