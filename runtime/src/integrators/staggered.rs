@@ -1334,7 +1334,7 @@ impl<S: System> Integrator<S> for TwoStage {
 
     fn end_notice(&self) -> Option<String> {
         let r = self.relaxation_residual()?;
-        (!(r <= RELAXATION_TOLERANCE)).then(|| {
+        (r.is_nan() || r > RELAXATION_TOLERANCE).then(|| {
             format!(
                 "warning: the dynamic relaxation has not converged at t = {:.6} s: the out-of-balance load is {r:.3e} of the loads in play (converged means below {RELAXATION_TOLERANCE:.0e}; after {} velocity resets), so the final positions are not the static solution (their error is of the order of that ratio, or larger). Run longer: raise `duration` in `simulate` or give --duration",
                 self.tau, self.relax_resets
