@@ -317,6 +317,8 @@ fn unsupported_items_are_named() {
         attachments: vec![],
         damping: 0.0,
         rotary_inertia_scale: 1.0,
+        velocity: [0.0; 3],
+        angular_velocity: [0.0; 3],
         origin: Origin::default(),
     });
     // a beam is simulated: its nodes become bodies after the scene's

@@ -306,6 +306,8 @@ fn beam_steps_do_not_allocate() {
         }],
         damping: 1e-5,
         rotary_inertia_scale: 10.0,
+        velocity: [0.0; 3],
+        angular_velocity: [0.0; 3],
         origin: Origin::default(),
     });
     let sys = Interp::new(&s).unwrap();

@@ -317,7 +317,16 @@ pub fn print_summary(s: &Summary, dir: &std::path::Path) {
         println!("  max relative energy drift {d:.3e}");
     }
     for (k, v) in &s.extra {
+        if k == "warnings" {
+            continue;
+        }
         println!("  {k}: {v}");
+    }
+    // the warnings were notices during the run; repeated here, where they are seen
+    if let Some(serde_json::Value::Array(ws)) = s.extra.get("warnings") {
+        for w in ws.iter().filter_map(|w| w.as_str()) {
+            eprintln!("{w}");
+        }
     }
     if let Some(f) = &s.failure {
         eprintln!(

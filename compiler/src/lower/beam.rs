@@ -36,6 +36,8 @@ const BEAM_KEYS: &[Key] = &[
     one("shape"),
     one("damping"),
     one("rotary_inertia_scale"),
+    one("velocity"),
+    one("angular_velocity"),
     Key {
         name: "clamp",
         min: 1,
@@ -338,6 +340,16 @@ impl<'a> Lowerer<'a> {
                 }),
             None => Ok(1.0),
         };
+        // Initial rigid motion: the first node's velocity and a rotation about it (world).
+        let velocity = match props.value("velocity") {
+            Some(e) => self.vec3(e, sc, Dim::VELOCITY, "a velocity"),
+            None => Ok([0.0; 3]),
+        };
+        let angular_velocity = match props.value("angular_velocity") {
+            Some(e) => self.vec3(e, sc, Dim::FREQUENCY, "an angular velocity"),
+            None => Ok([0.0; 3]),
+        };
+        let (velocity, angular_velocity) = (velocity?, angular_velocity?);
         let (pts, (elements, espan), section) = (pts?, elements?, section?);
         let (damping, rotary_inertia_scale) = (damping?, rotary_inertia_scale?);
         // Subdivide.
@@ -479,6 +491,8 @@ impl<'a> Lowerer<'a> {
             attachments,
             damping,
             rotary_inertia_scale,
+            velocity,
+            angular_velocity,
             origin: Sources::origin(sc.file, d.span),
         })
     }

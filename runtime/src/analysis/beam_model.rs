@@ -29,6 +29,11 @@ use crate::contract::scene::{Attachment, Body, BodyRef, Joint, JointKind, Origin
 use crate::contract::system::{BeamElementLayout, BeamInfo, BeamLayout};
 use crate::kernels::beam_element::{lumped_mass, BeamSection};
 
+/// Components of a vector as an array.
+fn arr(v: &Vector3<f64>) -> [f64; 3] {
+    [v.x, v.y, v.z]
+}
+
 /// A scene with its beams made bodies and joints, and the elements between them.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Expanded {
@@ -101,6 +106,10 @@ pub fn expand(scene: &Scene) -> Result<Expanded, BeamModelError> {
             len.push(l);
         }
         let up = vec3(&beam.up);
+        let (v0, w0) = (vec3(&beam.velocity), vec3(&beam.angular_velocity));
+        if !(v0.iter().chain(w0.iter()).all(|c| c.is_finite())) {
+            return Err(err("the initial velocity is not finite".into()));
+        }
         let first_body = out.bodies.len();
         let mut node_q = Vec::with_capacity(n);
         for k in 0..n {
@@ -143,8 +152,9 @@ pub fn expand(scene: &Scene) -> Result<Expanded, BeamModelError> {
                 inertia: [[j.x, 0.0, 0.0], [0.0, j.y, 0.0], [0.0, 0.0, j.z]],
                 position: beam.nodes[k],
                 orientation: quat_array(&q),
-                velocity: [0.0; 3],
-                angular_velocity: [0.0; 3],
+                // the beam's rigid initial motion: ω about the first node, in node axes
+                velocity: arr(&(v0 + w0.cross(&(x[k] - x[0])))),
+                angular_velocity: arr(&(c.transpose() * w0)),
                 origin: beam.origin,
             });
         }
@@ -264,6 +274,8 @@ mod tests {
             }],
             damping: 0.0,
             rotary_inertia_scale: 2.0,
+            velocity: [0.0; 3],
+            angular_velocity: [0.0; 3],
             origin: Origin::default(),
         }
     }

@@ -450,6 +450,14 @@ pub struct Beam {
     /// beam's shear/rotary-inertia frequencies, and so raises its explicit step limit.
     #[serde(default = "one")]
     pub rotary_inertia_scale: f64,
+    /// Initial velocity of the first node (world, m/s); the beam starts in the rigid motion
+    /// of this and [`Beam::angular_velocity`].
+    #[serde(default)]
+    pub velocity: Vec3,
+    /// Initial angular velocity of the whole beam (world, rad/s), a rigid rotation about its
+    /// first node: node `k` starts with `velocity + ω × (x_k − x_0)` and angular velocity ω.
+    #[serde(default)]
+    pub angular_velocity: Vec3,
     /// Source location.
     pub origin: Origin,
 }

@@ -159,6 +159,10 @@ pub struct RunReport {
     pub max_energy_drift: f64,
     /// Method statistics (name, value).
     pub stats: Vec<(String, f64)>,
+    /// Warnings about the result, given at the end of the run (also to
+    /// [`Observer::notice`]): a violation large for its joint, a dynamic relaxation that has
+    /// not converged. A run that finishes with warnings exits 0 and says them.
+    pub warnings: Vec<String>,
 }
 
 /// Buffers for evaluating frames.
@@ -317,6 +321,7 @@ pub fn run<S: System>(sys: &S, cfg: &RunConfig, obs: &mut dyn Observer) -> RunRe
         max_relative_violation: (0.0, String::new(), 0.0),
         max_energy_drift: 0.0,
         stats: Vec::new(),
+        warnings: Vec::new(),
     };
     if let Err(cause) = crate::analysis::input_limits::check_run(cfg.step, cfg.duration) {
         report.failure = Some(Failure {
@@ -428,13 +433,16 @@ pub fn run<S: System>(sys: &S, cfg: &RunConfig, obs: &mut dyn Observer) -> RunRe
             .into_iter()
             .map(|(n, v)| (n.to_string(), v))
             .collect();
+        if let Some(m) = integ.end_notice() {
+            report.warnings.push(m);
+        }
         break;
     }
     report.step = h;
     obs.progress(report.t_end);
     let (ratio, joint, length) = &report.max_relative_violation;
     if *ratio > JOINT_LENGTH_WARNING {
-        obs.notice(&format!(
+        report.warnings.push(format!(
             "warning: the violation of joint '{joint}' reached {:.3e} m, {:.1} % of the joint's own length ({length:.3e} m, its largest lever arm or body size): the answer is not accurate to the scene's scale. Reduce the step (now {h:.3e} s){}",
             ratio * length,
             100.0 * ratio,
@@ -444,6 +452,9 @@ pub fn run<S: System>(sys: &S, cfg: &RunConfig, obs: &mut dyn Observer) -> RunRe
                 ""
             }
         ));
+    }
+    for w in &report.warnings {
+        obs.notice(w);
     }
     report
 }
@@ -861,6 +872,18 @@ pub fn run_to_dir<S: System>(
     summary
         .extra
         .insert("retries".into(), report.retries.into());
+    if !report.warnings.is_empty() {
+        summary.extra.insert(
+            "warnings".into(),
+            serde_json::Value::Array(
+                report
+                    .warnings
+                    .iter()
+                    .map(|w| serde_json::Value::String(w.clone()))
+                    .collect(),
+            ),
+        );
+    }
     if let Some(v) = serde_json::Number::from_f64(report.max_relative_violation.0) {
         summary.extra.insert(
             "max_violation_of_joint_length".into(),

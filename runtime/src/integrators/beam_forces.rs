@@ -314,6 +314,8 @@ mod tests {
                 attachments: vec![],
                 damping: 0.0,
                 rotary_inertia_scale: 1.0,
+                velocity: [0.0; 3],
+                angular_velocity: [0.0; 3],
                 origin: Origin::default(),
             }],
             meshes: vec![],

@@ -403,4 +403,10 @@ pub trait Integrator<S: System> {
     fn take_notice(&mut self) -> Option<String> {
         None
     }
+    /// A warning about the result of a run that reached its end time, asked once there: a
+    /// result that is not what the run was asked for (a static solution by dynamic relaxation
+    /// that has not converged). The driver gives it to the observer and the run report.
+    fn end_notice(&self) -> Option<String> {
+        None
+    }
 }

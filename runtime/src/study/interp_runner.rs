@@ -93,6 +93,7 @@ impl InterpRunner {
             max_relative_violation: (0.0, String::new(), 0.0),
             max_energy_drift: 0.0,
             stats: Vec::new(),
+            warnings: Vec::new(),
         })
     }
 }
