@@ -262,6 +262,9 @@ impl<S: System> Integrator<S> for WithMeshes<'_, S> {
     fn take_notice(&mut self) -> Option<String> {
         self.inner.as_mut().and_then(|i| i.take_notice())
     }
+    fn end_notice(&self) -> Option<String> {
+        self.inner.as_ref().and_then(|i| i.end_notice())
+    }
 }
 
 /// The refusal of a step above a beam's explicit limit, if any: per beam, the limit of its

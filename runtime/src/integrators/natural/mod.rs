@@ -1543,7 +1543,6 @@ mod tests {
             joints,
             forces: Vec::new(),
             beams: Vec::new(),
-            mesh: Default::default(),
             meshes: Vec::new(),
             contacts: Vec::new(),
             simulate: Simulate::default(),
