@@ -312,8 +312,10 @@ mod tests {
             let Ok(tokens) = src.parse::<TokenStream>() else {
                 continue; // not Rust tokens (e.g. a degree sign): unusable in model! anyway
             };
-            let a = crate::load_str("a.mbd", &src, &[]);
-            let b = crate::load_str("a.mbd", &TokenText::new(tokens).text, &[]);
+            // named by its path: imports (.msh) resolve next to it
+            let name = p.to_string_lossy();
+            let a = crate::load_str(&name, &src, &[]);
+            let b = crate::load_str(&name, &TokenText::new(tokens).text, &[]);
             // equal up to the source offsets (comments are not tokens)
             fn strip(v: &mut serde_json::Value) {
                 match v {
