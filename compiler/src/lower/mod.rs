@@ -24,6 +24,8 @@ mod force;
 mod joint;
 mod mesh;
 pub mod msh;
+#[cfg(test)]
+mod msh_props;
 mod props;
 mod simulate;
 
