@@ -210,7 +210,7 @@ fn override_errors_name_the_parameter_the_value_and_what_is_expected() {
     let (_, msg, _, labels) = override_error(&src, &["N=2 m"]);
     assert_eq!(
         msg,
-        "`--set N=2 m`: expected a number without unit, found a quantity in m (length)"
+        "`--set N=2 m`: expected a dimensionless number, found a quantity in m (length)"
     );
     assert_eq!(labels, ["--set N: 2 m", "t.mbd: 3"]);
     // A word that is no value: one error, no cascade of unknown names.

@@ -1213,11 +1213,11 @@ fn is_constant_value(v: &Value) -> bool {
     }
 }
 
-/// What a parameter with this default expects, in words: "a mass in kg", "a number without
-/// unit", "a 3-vector in m/s^2 (acceleration)", "a boolean".
+/// What a parameter with this default expects, in words: "a quantity in kg (mass)", "a
+/// dimensionless number" (counts, angles), "a 3-vector in m/s^2 (acceleration)", "a boolean".
 fn expected(default: &Value) -> String {
     match default {
-        Value::Num(q) if q.poly || q.dim.is_none() => "a number without unit".into(),
+        Value::Num(q) if q.poly || q.dim.is_none() => "a dimensionless number".into(),
         Value::Num(q) => format!("a quantity in {}", q.dim.describe()),
         Value::Tuple(items) => match items.first() {
             Some(Value::Num(q)) if !(q.poly || q.dim.is_none()) => {
@@ -1232,9 +1232,9 @@ fn expected(default: &Value) -> String {
 /// The help of a refused override: what to write, shown with the default as written.
 fn override_help(name: &str, default: &Value, default_text: &str) -> String {
     let what = match default {
-        Value::Num(q) if q.poly || q.dim.is_none() => "a plain number".to_string(),
+        Value::Num(q) if q.poly || q.dim.is_none() => "a dimensionless number".to_string(),
         Value::Num(q) => format!("a number with a unit of {}", q.dim.describe()),
-        Value::Tuple(items) => format!("a {}-vector written like the default", items.len()),
+        Value::Tuple(items) => format!("a {}-vector", items.len()),
         Value::Bool(_) => "`true` or `false`".to_string(),
         Value::Str(_) => "a quoted string".to_string(),
         v => v.kind(),
