@@ -3,11 +3,21 @@
 //! limit `h·ω_max ≤ 2`, or warn when there are fewer than 20 steps per period of the fastest
 //! motion (notes A §1.10). `mbdc sweep` starts its default steps from the same estimate
 //! ([`mbdc_runtime::study::step_series`]).
+//!
+//! Then [`start`]: the refusals of the run itself before its first step (the run settings, the
+//! method's start: a method that does not simulate the scene, a step above a beam's limit, a
+//! dense method on too large a system), found by the runtime's own functions on the interpreted
+//! system. `mbdc check` applies both ([`gate`]), so that it refuses what `mbdc run` refuses, and
+//! `mbdc run` applies both before it builds a compiled program.
 
 use std::process::ExitCode;
 
+use mbdc_runtime::app::Settings;
+use mbdc_runtime::integrators::{self, State};
+use mbdc_runtime::interp::Interp;
 use mbdc_runtime::scene::{MethodSpec, Scene};
 use mbdc_runtime::step_limits;
+use mbdc_runtime::system::System;
 
 /// What the gate decided.
 #[derive(Debug, PartialEq)]
@@ -56,36 +66,60 @@ pub fn judge(scene: &Scene, method: &MethodSpec, h: f64) -> Verdict {
     Verdict::Ok
 }
 
-/// Print the verdict; `Err` with the exit code when the run must not start.
-pub fn gate(
+/// What the run refuses before its first step, without running: the run settings
+/// ([`mbdc_runtime::app::run_config`]) and the method's start ([`integrators::make`]) on `sys`
+/// (the interpreted scene) from its initial state, the functions the run itself calls. `Err`
+/// with the refusal.
+pub fn start<S: System>(sys: &S, scene: &Scene, settings: &Settings) -> Result<(), String> {
+    let cfg = mbdc_runtime::app::run_config(sys, scene, settings)?;
+    let initial = State::initial(sys);
+    integrators::make(&cfg.method, sys, cfg.step, &initial)
+        .map(drop)
+        .map_err(|e| format!("method {}: {e}", cfg.method.name()))
+}
+
+/// The interpreted system of a scene, or the error printed (a scene the runtime does not
+/// simulate, such as one with a finite-element mesh).
+pub fn interp(scene: &Scene) -> Result<Interp, ExitCode> {
+    Interp::new(scene).map_err(|e| {
+        eprintln!("error: {e}");
+        ExitCode::FAILURE
+    })
+}
+
+/// Print the verdict of [`judge`], then of [`start`]; `Err` with the exit code when the run
+/// must not start. `force` runs past the gate's refusal (not past the run's own).
+pub fn gate<S: System>(
     scene: &Scene,
-    method_name: Option<&str>,
-    step: Option<f64>,
+    sys: &S,
+    settings: &Settings,
     force: bool,
     quiet: bool,
 ) -> Result<(), ExitCode> {
-    let method = match method_name {
+    let method = match settings.method.as_deref() {
         Some(n) if n != scene.simulate.method.name() => {
             MethodSpec::default_for(n).unwrap_or_else(|| scene.simulate.method.clone())
         }
         _ => scene.simulate.method.clone(),
     };
-    let h = step.unwrap_or(scene.simulate.step);
+    let h = settings.step.unwrap_or(scene.simulate.step);
     match judge(scene, &method, h) {
-        Verdict::Ok => Ok(()),
+        Verdict::Ok => {}
         Verdict::Warn(m) => {
             if !quiet {
                 eprintln!("warning: {m}");
             }
-            Ok(())
         }
         Verdict::Refuse(m) if force => {
             eprintln!("warning: {m}\n  (running anyway: --force)");
-            Ok(())
         }
         Verdict::Refuse(m) => {
             eprintln!("error: {m}");
-            Err(ExitCode::FAILURE)
+            return Err(ExitCode::FAILURE);
         }
     }
+    start(sys, scene, settings).map_err(|m| {
+        eprintln!("error: {m}");
+        ExitCode::FAILURE
+    })
 }

@@ -71,6 +71,59 @@ fn check_with_overrides_effects_and_json() {
     assert!(e.contains("there is no parameter `M`"), "{e}");
 }
 
+/// A `--set` of the wrong unit or kind, or of a name that is no parameter, is one clear error
+/// from `check` and `run` alike: the value given, what the parameter expects, its
+/// declaration in the file; nothing is written and nothing panics.
+#[test]
+fn bad_overrides_are_one_clear_error_at_the_parameter() {
+    let model = root().join("models/pendulum.mbd");
+    let out_dir = std::env::temp_dir().join(format!("mbdc-bad-set-{}", std::process::id()));
+    let cases = [
+        (
+            "m=3 m",
+            "`--set m=3 m`: expected a quantity in kg (mass), found a quantity in m (length)",
+            "pendulum.mbd:16:13",
+        ),
+        (
+            "L=2",
+            "`--set L=2`: expected a quantity in m (length), found a number",
+            "pendulum.mbd:15:13",
+        ),
+        (
+            "m=abc",
+            "`--set m=abc`: expected a quantity in kg (mass), found the name `abc`",
+            "pendulum.mbd:16:13",
+        ),
+        (
+            "g=9 m/s^2",
+            "`--set g=9 m/s^2`: `g` is a `const`, not a `param`",
+            "pendulum.mbd:19:9",
+        ),
+        (
+            "mass=2 kg",
+            "`--set mass=2 kg`: there is no parameter `mass`",
+            "its parameters: `m`, `L`, `r`, `theta0`",
+        ),
+    ];
+    for (set, message, at) in cases {
+        for cmd in ["check", "run"] {
+            let mut c = command();
+            c.args([cmd, "--set", set]);
+            if cmd == "run" {
+                c.args(["--interp", "-o"]).arg(&out_dir);
+            }
+            let out = c.arg(&model).output().expect("runs");
+            let e = String::from_utf8_lossy(&out.stderr);
+            assert_eq!(out.status.code(), Some(1), "{cmd} --set {set}: {e}");
+            assert!(e.contains(message), "{cmd} --set {set}: {e}");
+            assert!(e.contains(at), "{cmd} --set {set}: {e}");
+            assert!(e.contains("1 error"), "{cmd} --set {set}: {e}");
+            assert!(!e.contains("panicked"), "{cmd} --set {set}: {e}");
+            assert!(!out_dir.exists(), "{cmd} --set {set}: nothing written");
+        }
+    }
+}
+
 #[test]
 fn check_fails_with_rendered_diagnostics() {
     let out = command()

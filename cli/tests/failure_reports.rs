@@ -290,3 +290,102 @@ fn a_step_above_a_beams_limit_is_refused_with_the_beam_named() {
     assert!(stderr.contains("beam 'blade', element"), "{stderr}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// The `error:` lines a command printed.
+fn error_lines(stderr: &str) -> Vec<&str> {
+    stderr.lines().filter(|l| l.starts_with("error:")).collect()
+}
+
+/// `mbdc check` refuses what `mbdc run` refuses before its first step, with the same error:
+/// a step above a beam's explicit limit (the stability gate), a method that does not
+/// simulate beams and a method that does not exist yet (the method's start), a dense method
+/// on too large a system (the runtime's size limit). The run refuses before it writes
+/// anything, also on the compiled route (before it builds a program).
+#[test]
+fn check_refuses_what_run_refuses_before_its_first_step() {
+    let dir = scratch("check-refuses");
+    let cantilever = std::fs::read_to_string(root().join("models/cantilever.mbd")).expect("model");
+    let pendulum = std::fs::read_to_string(root().join("models/pendulum.mbd")).expect("model");
+    let chain = std::fs::read_to_string(root().join("models/chain.mbd")).expect("model");
+    let cases = [
+        (
+            "beam_step",
+            cantilever.replace("step 4 us", "step 1 ms"),
+            &[][..],
+            "above the stability limit of the beam 'blade'",
+        ),
+        (
+            "beam_method",
+            cantilever.replace("step 4 us", "step 4 us; method implicit_trapezoid"),
+            &[][..],
+            "implicit_trapezoid does not simulate flexible beams",
+        ),
+        (
+            "not_yet",
+            pendulum.replace("step 1 ms }", "step 1 ms; method state_time }"),
+            &[][..],
+            "method `state_time` is not available yet",
+        ),
+        (
+            "dense",
+            chain.replace(
+                "step 0.1 ms }",
+                "step 0.1 ms; method coordinate_partitioning }",
+            ),
+            &["--set", "N=700"][..],
+            "coordinate_partitioning is a dense method and this system has 7700 unknowns",
+        ),
+    ];
+    for (name, text, set, expected) in cases {
+        let model = dir.join(format!("{name}.mbd"));
+        std::fs::write(&model, text).expect("write");
+        let check = command()
+            .arg("check")
+            .args(set)
+            .arg(&model)
+            .output()
+            .expect("runs");
+        let check_err = String::from_utf8_lossy(&check.stderr);
+        assert!(!check.status.success(), "{name}: {check_err}");
+        assert!(check_err.contains(expected), "{name}: {check_err}");
+        assert!(
+            check_err.contains("`mbdc run` refuses this scene before its first step"),
+            "{name}: {check_err}"
+        );
+        for route in [&["--interp"][..], &[][..]] {
+            let out = dir.join(format!("{name}-out"));
+            let run = command()
+                .arg("run")
+                .args(route)
+                .args(set)
+                .arg("-o")
+                .arg(&out)
+                .arg(&model)
+                .output()
+                .expect("runs");
+            let run_err = String::from_utf8_lossy(&run.stderr);
+            assert!(!run.status.success(), "{name} {route:?}: {run_err}");
+            assert_eq!(
+                error_lines(&run_err),
+                error_lines(&check_err),
+                "{name} {route:?}: the same refusal"
+            );
+            assert!(
+                !out.exists(),
+                "{name} {route:?}: a refused run writes nothing"
+            );
+        }
+    }
+    // a scene the run accepts passes check
+    let ok = command()
+        .arg("check")
+        .arg(root().join("models/cantilever.mbd"))
+        .output()
+        .expect("runs");
+    assert!(
+        ok.status.success(),
+        "{}",
+        String::from_utf8_lossy(&ok.stderr)
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -219,7 +219,13 @@ pub fn load_with(
             Ok(e) => Some(e),
             Err(errs) => {
                 for e in &errs {
-                    diags.push(load::parse_diagnostic(e, fid));
+                    let mut d = load::parse_diagnostic(e, fid);
+                    // the value is not a file
+                    d.message = d
+                        .message
+                        .replace("the end of the file", "the end of the value");
+                    d.message = format!("`--set {}={}`: {}", o.name, o.value, d.message);
+                    diags.push(d);
                 }
                 None
             }
@@ -257,6 +263,8 @@ pub fn load_with(
             diagnostics: diags,
         };
     }
+    let override_files: Vec<(FileId, String)> =
+        states.iter().map(|s| (s.file, s.name.clone())).collect();
     let (sources, scene, mut lowered) = lower::lower(sources, &files, main, states);
     diags.append(&mut lowered);
     if let Some(s) = &scene {
@@ -264,6 +272,7 @@ pub fn load_with(
             diags.extend(validate::validate(s, &sources));
         }
     }
+    note_overrides(&mut diags, &sources, &override_files);
     sort(&mut diags);
     diags.dedup();
     let scene = if diags.iter().any(Diagnostic::is_error) {
@@ -275,6 +284,36 @@ pub fn load_with(
         sources,
         scene,
         diagnostics: diags,
+    }
+}
+
+/// When a model with overrides has errors in the model itself (none at an override), a note
+/// per override saying it is in effect: `--set L=-1 m` can make the model's own lines fail
+/// (a negative length, a non-integer loop bound), and those errors point at the model.
+fn note_overrides(diags: &mut Vec<Diagnostic>, sources: &Sources, files: &[(FileId, String)]) {
+    let at_override = |d: &Diagnostic| {
+        d.labels
+            .iter()
+            .any(|l| files.iter().any(|(f, _)| *f == l.file))
+    };
+    if files.is_empty()
+        || !diags.iter().any(Diagnostic::is_error)
+        || diags.iter().any(|d| d.is_error() && at_override(d))
+    {
+        return;
+    }
+    for (file, name) in files {
+        let value = sources.text(*file);
+        diags.push(
+            Diagnostic::note(
+                diag::codes::OVERRIDE,
+                format!("the errors above are with `--set {name}={}`", value.trim()),
+            )
+            .primary(*file, mbdc_dsl::ast::Span::new(0, value.len()), "in effect")
+            .help(format!(
+                "check the model without `--set {name}` to see whether it is the cause"
+            )),
+        );
     }
 }
 

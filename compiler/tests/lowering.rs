@@ -154,9 +154,146 @@ fn params_and_overrides() {
         .errors()
         .find(|d| d.code == "mbdc::override")
         .expect("unknown override");
-    assert_eq!(d.help.as_deref(), Some("did you mean `L`?"));
+    assert_eq!(
+        d.help.as_deref(),
+        Some("did you mean `L`? its parameters: `L`")
+    );
     assert!("no_equals".parse::<Override>().is_err());
     assert!("1x=2".parse::<Override>().is_err());
+}
+
+/// The one error of a load with overrides, with its code, message, help and labels as
+/// `file name: text under the label`.
+fn override_error(src: &str, set: &[&str]) -> (String, String, String, Vec<String>) {
+    let set: Vec<Override> = set.iter().map(|s| s.parse().unwrap()).collect();
+    let l = load_str("t.mbd", src, &set);
+    let errs: Vec<_> = l.errors().collect();
+    assert_eq!(errs.len(), 1, "{}", l.render_plain());
+    let d = errs[0];
+    let labels = d
+        .labels
+        .iter()
+        .map(|lb| {
+            let text = &l.sources.text(lb.file)[lb.span.start..lb.span.end];
+            format!("{}: {text}", l.sources.name(lb.file))
+        })
+        .collect();
+    (
+        d.code.to_string(),
+        d.message.clone(),
+        d.help.clone().unwrap_or_default(),
+        labels,
+    )
+}
+
+#[test]
+fn override_errors_name_the_parameter_the_value_and_what_is_expected() {
+    let src = model(
+        "param m = 1 kg\n param N = 3\n param g = (0, 0, -9.81) m/s^2\n param on = true\n const c = 2 m\n gravity g\n for i in 0..N { body b[i] { mass m; inertia sphere(radius: c) } }",
+    );
+    // A value in the wrong unit: the expected unit, the value given, the declaration.
+    let (code, msg, help, labels) = override_error(&src, &["m=3 m"]);
+    assert_eq!(code, "mbdc::override");
+    assert_eq!(
+        msg,
+        "`--set m=3 m`: expected a quantity in kg (mass), found a quantity in m (length)"
+    );
+    assert_eq!(labels, ["--set m: 3 m", "t.mbd: 1 kg"]);
+    assert!(help.contains("`--set m=1 kg`"), "{help}");
+    // A missing unit.
+    let (_, msg, _, _) = override_error(&src, &["m=3"]);
+    assert_eq!(
+        msg,
+        "`--set m=3`: expected a quantity in kg (mass), found a number"
+    );
+    // A unit on a number without one.
+    let (_, msg, _, labels) = override_error(&src, &["N=2 m"]);
+    assert_eq!(
+        msg,
+        "`--set N=2 m`: expected a dimensionless number, found a quantity in m (length)"
+    );
+    assert_eq!(labels, ["--set N: 2 m", "t.mbd: 3"]);
+    // A word that is no value: one error, no cascade of unknown names.
+    let (code, msg, _, _) = override_error(&src, &["m=abc"]);
+    assert_eq!(code, "mbdc::override");
+    assert_eq!(
+        msg,
+        "`--set m=abc`: expected a quantity in kg (mass), found the name `abc`"
+    );
+    // A vector of the wrong size or unit, a boolean for a number, a function of time.
+    let (_, msg, _, _) = override_error(&src, &["g=(0, -9.81) m/s^2"]);
+    assert_eq!(
+        msg,
+        "`--set g=(0, -9.81) m/s^2`: expected a 3-vector in m/s^2 (acceleration), found a 2-vector"
+    );
+    let (_, msg, _, _) = override_error(&src, &["g=(0, 0, -9.81) m"]);
+    assert!(msg.starts_with("`--set g=(0, 0, -9.81) m`: expected a 3-vector in m/s^2"));
+    let (_, msg, _, _) = override_error(&src, &["m=true"]);
+    assert!(msg.ends_with("found a boolean"), "{msg}");
+    let (_, msg, _, _) = override_error(&src, &["on=1"]);
+    assert!(msg.ends_with("expected a boolean, found a number"), "{msg}");
+    let (_, msg, _, _) = override_error(&src, &["m=t * 1 kg"]);
+    assert!(msg.ends_with("found a function of time"), "{msg}");
+    // A syntax error names the override and says "value", not "file".
+    let (code, msg, _, _) = override_error(&src, &["m=1 kg +"]);
+    assert_eq!(code, "mbdc::syntax");
+    assert!(msg.starts_with("`--set m=1 kg +`: "), "{msg}");
+    assert!(msg.contains("the end of the value"), "{msg}");
+    // A constant is not a parameter: said so, at its declaration.
+    let (_, msg, help, labels) = override_error(&src, &["c=3 m"]);
+    assert_eq!(msg, "`--set c=3 m`: `c` is a `const`, not a `param`");
+    assert_eq!(labels, ["--set c: 3 m", "t.mbd: c"]);
+    assert!(help.contains("`param c = ...`"), "{help}");
+    // An unknown name: the closest, then the parameters nearest first.
+    let (_, msg, help, _) = override_error(&src, &["mm=3 kg"]);
+    assert_eq!(msg, "`--set mm=3 kg`: there is no parameter `mm`");
+    assert_eq!(
+        help,
+        "did you mean `m`? its parameters: `m`, `N`, `g`, `on`"
+    );
+    let (_, _, help, _) = override_error(&src, &["mass=3 kg"]);
+    assert_eq!(
+        help,
+        "the model has no parameter of that name; its parameters: `m`, `N`, `g`, `on`"
+    );
+}
+
+#[test]
+fn unknown_override_lists_at_most_eight_parameters() {
+    let params: String = (0..20).map(|i| format!("param p{i} = {i}\n")).collect();
+    let src = model(&params);
+    let (_, _, help, _) = override_error(&src, &["p=1"]);
+    assert!(
+        help.starts_with("did you mean `p0`? the nearest of its 20 parameters: `p0`, "),
+        "{help}"
+    );
+    assert_eq!(help.matches('`').count(), 2 + 16, "{help}");
+}
+
+#[test]
+fn model_errors_caused_by_an_override_say_it_is_in_effect() {
+    let src = model(
+        "param N = 3\n for i in 0..N { body b[i] { mass 1 kg; inertia sphere(radius: 1 cm) } }",
+    );
+    let set: Vec<Override> = vec!["N=2.5".parse().unwrap()];
+    let l = load_str("t.mbd", &src, &set);
+    let errs: Vec<_> = l.errors().collect();
+    assert_eq!(errs.len(), 1, "{}", l.render_plain());
+    assert!(errs[0].message.contains("must be an integer"));
+    let note = l
+        .diagnostics
+        .iter()
+        .find(|d| !d.is_error())
+        .expect("a note");
+    assert_eq!(note.message, "the errors above are with `--set N=2.5`");
+    // Without errors, no note.
+    let l = load_str("t.mbd", &src, &["N=2".parse::<Override>().unwrap()]);
+    assert!(!l.has_errors(), "{}", l.render_plain());
+    assert!(
+        !l.diagnostics.iter().any(|d| d.code == "mbdc::override"),
+        "{}",
+        l.render_plain()
+    );
 }
 
 #[test]

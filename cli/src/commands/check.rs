@@ -1,9 +1,11 @@
 //! `mbdc check FILE`: diagnostics and a summary of the scene.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use mbdc_compiler::Override;
+use mbdc_runtime::app::Settings;
+use mbdc_runtime::scene::Scene;
 
 use crate::render;
 
@@ -56,7 +58,7 @@ pub fn run(args: Args) -> ExitCode {
                 return ExitCode::FAILURE;
             }
         }
-        return ExitCode::SUCCESS;
+        return refused_by_run(scene, &args.file);
     }
     let summary = mbdc_compiler::summary(scene);
     print!("{summary}");
@@ -100,5 +102,22 @@ pub fn run(args: Args) -> ExitCode {
             render::counts(&loaded.diagnostics)
         );
     }
-    ExitCode::SUCCESS
+    refused_by_run(scene, &args.file)
+}
+
+/// What `mbdc run` refuses before its first step, found by the same functions
+/// ([`crate::step_gate::gate`]): printed, and the exit code.
+fn refused_by_run(scene: &Scene, file: &Path) -> ExitCode {
+    let started = crate::step_gate::interp(scene)
+        .and_then(|sys| crate::step_gate::gate(scene, &sys, &Settings::default(), false, false));
+    match started {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(code) => {
+            eprintln!(
+                "{}: `mbdc run` refuses this scene before its first step",
+                file.display()
+            );
+            code
+        }
+    }
 }

@@ -111,14 +111,18 @@ pub fn load(file: &std::path::Path, set: &[Override]) -> Result<Scene, ExitCode>
 /// The run settings from the scene and the arguments (the same rule as the compiled
 /// program's, [`mbdc_runtime::app::run_config`]).
 pub fn config<S: System>(sys: &S, scene: &Scene, args: &Args) -> Result<RunConfig, String> {
-    let settings = Settings {
+    mbdc_runtime::app::run_config(sys, scene, &settings(args))
+}
+
+/// The run settings given on the command line.
+fn settings(args: &Args) -> Settings {
+    Settings {
         method: args.method.clone(),
         step: args.step,
         duration: args.duration,
         every: args.every,
         halve_step: args.on_failure == FailurePolicy::HalveStep,
-    };
-    mbdc_runtime::app::run_config(sys, scene, &settings)
+    }
 }
 
 /// A progress bar that appears once a run has taken more than a second.
@@ -196,30 +200,25 @@ pub fn run(args: Args) -> ExitCode {
         Ok(s) => s,
         Err(code) => return code,
     };
-    if let Err(code) = crate::step_gate::gate(
-        &scene,
-        args.method.as_deref(),
-        args.step,
-        args.force,
-        args.quiet,
-    ) {
+    // what the run refuses before its first step, refused before a compiled program is
+    // built, on the system the run starts from
+    let mut sys = match crate::step_gate::interp(&scene) {
+        Ok(s) => s,
+        Err(code) => return code,
+    };
+    if args.assemble {
+        // the compiled program assembles again, and reports it
+        if let Err(code) = assemble(&mut sys, args.quiet || !args.interp) {
+            return code;
+        }
+    }
+    if let Err(code) =
+        crate::step_gate::gate(&scene, &sys, &settings(&args), args.force, args.quiet)
+    {
         return code;
     }
     if !args.interp {
         return run_compiled(&scene, &args);
-    }
-    let mut sys = match Interp::new(&scene) {
-        Ok(s) => s,
-        Err(e) => {
-            eprintln!("error: {e}");
-            return ExitCode::FAILURE;
-        }
-    };
-    if args.assemble {
-        match assemble(&mut sys, args.quiet) {
-            Ok(()) => {}
-            Err(code) => return code,
-        }
     }
     simulate(&sys, &scene, &args)
 }

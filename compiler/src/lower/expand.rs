@@ -116,20 +116,38 @@ impl<'a> Lowerer<'a> {
         let unused: Vec<_> = self.overrides.iter().filter(|o| !o.used).cloned().collect();
         let names: Vec<String> = self.param_decls.keys().cloned().collect();
         for o in unused {
-            let help = suggest::did_you_mean(&o.name, names.iter().map(|s| s.as_str()))
-                .unwrap_or_else(|| {
-                    if names.is_empty() {
-                        "the model declares no parameters".into()
-                    } else {
-                        let mut n = names.clone();
-                        n.sort();
-                        format!("parameters: {}", n.join(", "))
-                    }
-                });
+            let given = self.sources.text(o.file).trim().to_string();
+            if let Some(&(cf, cs)) = self.const_decls.get(&o.name) {
+                self.report(
+                    Diagnostic::error(
+                        codes::OVERRIDE,
+                        format!(
+                            "`--set {}={given}`: `{}` is a `const`, not a `param`",
+                            o.name, o.name
+                        ),
+                    )
+                    .primary(o.file, o.span, "the value given")
+                    .secondary(
+                        cf,
+                        cs,
+                        format!("`{}` is declared here as a `const`", o.name),
+                    )
+                    .help(format!(
+                        "only a `param` can be set from the command line: declare it \
+                         `param {} = ...` to make it settable",
+                        o.name
+                    )),
+                );
+                continue;
+            }
+            let help = unknown_param_help(&o.name, &names);
             self.report(
                 Diagnostic::error(
                     codes::OVERRIDE,
-                    format!("`--set {}`: there is no parameter `{}`", o.name, o.name),
+                    format!(
+                        "`--set {}={given}`: there is no parameter `{}`",
+                        o.name, o.name
+                    ),
                 )
                 .primary(o.file, o.span, "unknown parameter")
                 .help(help),
@@ -215,6 +233,9 @@ impl<'a> Lowerer<'a> {
                 }
                 ItemKind::Const { name, value } => {
                     self.count_item(f.id, it.span);
+                    self.const_decls
+                        .entry(name.name.clone())
+                        .or_insert((f.id, name.span));
                     if let Some(&(pf, ps)) = bound.get(&name.name) {
                         self.dup_value(&name.name, f.id, name.span, pf, ps);
                         continue;
@@ -365,12 +386,32 @@ impl<'a> Lowerer<'a> {
                     ..sc.clone()
                 };
                 let ov = self.eval(expr, &osc)?;
-                self.check_param_value(&ov, name, expr.span, &osc)?;
-                if let Err(msg) = same_shape(&default, &ov) {
+                let given = self.sources.text(o.file).trim().to_string();
+                let default_text = self
+                    .sources
+                    .text(sc.file)
+                    .get(value.span.start..value.span.end)
+                    .unwrap_or("")
+                    .to_string();
+                let declared = format!("`{name}` is declared here, `{default_text}`");
+                let problem = if is_constant_value(&ov) {
+                    same_shape(&default, &ov).err()
+                } else {
+                    Some(format!(
+                        "expected {}, found {}",
+                        expected(&default),
+                        ov.kind()
+                    ))
+                };
+                if let Some(msg) = problem {
                     return Err(self.report(
-                        Diagnostic::error(codes::OVERRIDE, format!("`--set {name}`: {msg}"))
-                            .primary(o.file, expr.span, "override")
-                            .secondary(sc.file, value.span, "the parameter's default"),
+                        Diagnostic::error(
+                            codes::OVERRIDE,
+                            format!("`--set {name}={given}`: {msg}"),
+                        )
+                        .primary(o.file, expr.span, "the value given")
+                        .secondary(sc.file, value.span, declared)
+                        .help(override_help(name, &default, &default_text)),
                     ));
                 }
                 v = ov;
@@ -382,15 +423,7 @@ impl<'a> Lowerer<'a> {
     }
 
     fn check_param_value(&mut self, v: &Value, name: &str, span: Span, sc: &Scope) -> R<()> {
-        let ok = match v {
-            Value::Num(q) => q.var == Var::None,
-            Value::Tuple(items) => items
-                .iter()
-                .all(|i| matches!(i, Value::Num(q) if q.var == Var::None)),
-            Value::Bool(_) | Value::Str(_) => true,
-            _ => false,
-        };
-        if ok {
+        if is_constant_value(v) {
             Ok(())
         } else {
             Err(self.report(
@@ -488,6 +521,11 @@ impl<'a> Lowerer<'a> {
                     if let Some(&ps) = local.get(&name.name) {
                         self.dup_value(&name.name, sc.file, name.span, sc.file, ps);
                         continue;
+                    }
+                    if ctx == Ctx::ModelTop {
+                        self.const_decls
+                            .entry(name.name.clone())
+                            .or_insert((sc.file, name.span));
                     }
                     // a value that failed is bound as failed: its uses are not reported again
                     let (v, kind) = match self.eval(value, sc) {
@@ -1127,6 +1165,83 @@ fn record_param(params: &mut Vec<ParamValue>, name: &str, v: &Value, overridden:
 }
 
 /// Whether an override has the same shape and dimensions as the default.
+/// Most parameter names listed in the help of an unknown `--set` name.
+const MAX_LISTED_PARAMS: usize = 8;
+
+/// The help of a `--set` of an unknown name: the closest name, then the parameters, nearest
+/// first (at most [`MAX_LISTED_PARAMS`]).
+fn unknown_param_help(name: &str, params: &[String]) -> String {
+    if params.is_empty() {
+        return "the model declares no parameters".into();
+    }
+    let mut by_distance: Vec<(usize, &str)> = params
+        .iter()
+        .map(|p| (suggest::distance(name, p, usize::MAX - 1), p.as_str()))
+        .collect();
+    by_distance.sort();
+    let listed: Vec<String> = by_distance
+        .iter()
+        .take(MAX_LISTED_PARAMS)
+        .map(|(_, p)| format!("`{p}`"))
+        .collect();
+    let list = if params.len() > MAX_LISTED_PARAMS {
+        format!(
+            "the nearest of its {} parameters: {}",
+            params.len(),
+            listed.join(", ")
+        )
+    } else {
+        format!("its parameters: {}", listed.join(", "))
+    };
+    // the candidates in a fixed order, so that ties go to the same name every time
+    match suggest::did_you_mean(name, by_distance.iter().map(|(_, p)| *p)) {
+        Some(d) => format!("{d} {list}"),
+        None => format!("the model has no parameter of that name; {list}"),
+    }
+}
+
+/// Whether a value may be a parameter's: a constant number, a vector of them, a boolean or
+/// a string.
+fn is_constant_value(v: &Value) -> bool {
+    match v {
+        Value::Num(q) => q.var == Var::None,
+        Value::Tuple(items) => items
+            .iter()
+            .all(|i| matches!(i, Value::Num(q) if q.var == Var::None)),
+        Value::Bool(_) | Value::Str(_) => true,
+        _ => false,
+    }
+}
+
+/// What a parameter with this default expects, in words: "a quantity in kg (mass)", "a
+/// dimensionless number" (counts, angles), "a 3-vector in m/s^2 (acceleration)", "a boolean".
+fn expected(default: &Value) -> String {
+    match default {
+        Value::Num(q) if q.poly || q.dim.is_none() => "a dimensionless number".into(),
+        Value::Num(q) => format!("a quantity in {}", q.dim.describe()),
+        Value::Tuple(items) => match items.first() {
+            Some(Value::Num(q)) if !(q.poly || q.dim.is_none()) => {
+                format!("a {}-vector in {}", items.len(), q.dim.describe())
+            }
+            _ => format!("a {}-vector", items.len()),
+        },
+        v => v.kind(),
+    }
+}
+
+/// The help of a refused override: what to write, shown with the default as written.
+fn override_help(name: &str, default: &Value, default_text: &str) -> String {
+    let what = match default {
+        Value::Num(q) if q.poly || q.dim.is_none() => "a dimensionless number".to_string(),
+        Value::Num(q) => format!("a number with a unit of {}", q.dim.describe()),
+        Value::Tuple(items) => format!("a {}-vector", items.len()),
+        Value::Bool(_) => "`true` or `false`".to_string(),
+        Value::Str(_) => "a quoted string".to_string(),
+        v => v.kind(),
+    };
+    format!("give `{name}` {what}, as its default is written: `--set {name}={default_text}`")
+}
+
 fn same_shape(default: &Value, ov: &Value) -> Result<(), String> {
     match (default, ov) {
         (Value::Num(a), Value::Num(b)) => {
@@ -1135,16 +1250,23 @@ fn same_shape(default: &Value, ov: &Value) -> Result<(), String> {
             } else {
                 Err(format!(
                     "expected {}, found {}",
-                    a.dim.describe(),
-                    b.dim.describe()
+                    expected(default),
+                    ov.kind()
                 ))
             }
         }
         (Value::Tuple(a), Value::Tuple(b)) if a.len() == b.len() => {
-            a.iter().zip(b).try_for_each(|(x, y)| same_shape(x, y))
+            match a.iter().zip(b).try_for_each(|(x, y)| same_shape(x, y)) {
+                Ok(()) => Ok(()),
+                Err(_) => Err(format!(
+                    "expected {}, found {}",
+                    expected(default),
+                    ov.kind()
+                )),
+            }
         }
         (Value::Bool(_), Value::Bool(_)) | (Value::Str(_), Value::Str(_)) => Ok(()),
-        (a, b) => Err(format!("expected {}, found {}", a.kind(), b.kind())),
+        (a, b) => Err(format!("expected {}, found {}", expected(a), b.kind())),
     }
 }
 

@@ -24,6 +24,8 @@ mod force;
 mod joint;
 mod mesh;
 pub mod msh;
+#[cfg(test)]
+mod msh_props;
 mod props;
 mod simulate;
 
@@ -174,6 +176,9 @@ pub(crate) struct Lowerer<'a> {
     pub overrides: Vec<OverrideState>,
     pub params: Vec<ParamValue>,
     pub param_decls: HashMap<String, (FileId, Span)>,
+    /// Constants of file and model top levels, first declaration: for the `--set` of a
+    /// constant.
+    pub const_decls: HashMap<String, (FileId, Span)>,
     pub generated: usize,
     pub limit_hit: bool,
     pub file_envs: Vec<Option<Env>>,
@@ -214,6 +219,7 @@ impl<'a> Lowerer<'a> {
             overrides,
             params: Vec::new(),
             param_decls: HashMap::new(),
+            const_decls: HashMap::new(),
             generated: 0,
             limit_hit: false,
             file_envs: Vec::new(),

@@ -92,7 +92,12 @@ pub fn file_kind(t: &std::fs::FileType) -> &'static str {
 /// short (no line end after it, as a table still being written leaves it), where the data
 /// end. Any other ragged row is refused with its line number: skipping or truncating there
 /// would silently drop the rest of the reference.
-fn read_columns(path: &Path, wanted: &[String]) -> Result<Vec<Vec<f64>>, ReferenceError> {
+///
+/// Returns the columns and the line of each row.
+fn read_columns(
+    path: &Path,
+    wanted: &[String],
+) -> Result<(Vec<Vec<f64>>, Vec<u64>), ReferenceError> {
     let err = |message: String| ReferenceError::Table {
         path: path.to_path_buf(),
         message,
@@ -116,6 +121,7 @@ fn read_columns(path: &Path, wanted: &[String]) -> Result<Vec<Vec<f64>>, Referen
         })
         .collect::<Result<_, _>>()?;
     let mut data = vec![Vec::new(); wanted.len()];
+    let mut lines = Vec::new();
     let ends_with_newline = ends_with_newline(path).map_err(|e| err(e.to_string()))?;
     let mut rec = csv::StringRecord::new();
     let mut short: Option<(u64, usize)> = None; // (line, columns) of a row cut short
@@ -142,11 +148,12 @@ fn read_columns(path: &Path, wanted: &[String]) -> Result<Vec<Vec<f64>>, Referen
                     .map_err(|_| err(format!("line {line}: `{field}` is not a number")))?,
             );
         }
+        lines.push(line);
     }
     if past_limit(&r) {
         return Err(err(too_large(r.position().byte())));
     }
-    Ok(data)
+    Ok((data, lines))
 }
 
 /// The error for a row whose column count differs from the header's.
@@ -237,10 +244,21 @@ impl Table {
                 "the table has no position (`BODY.x .y .z`) or orientation (`BODY.qw .qx .qy .qz`) columns of the scene's bodies",
             ));
         }
-        let data = read_columns(path, &names)?;
+        let (data, lines) = read_columns(path, &names)?;
         let t = data[0].clone();
-        if t.len() < 2 || t.windows(2).any(|w| w[1] <= w[0]) {
+        if t.len() < 2 {
             return Err(err("the table needs at least two rows with increasing `t`"));
+        }
+        if let Some(k) = (1..t.len()).find(|&k| t[k] <= t[k - 1]) {
+            return Err(ReferenceError::Table {
+                path: path.to_path_buf(),
+                message: format!(
+                    "line {}: t = {} does not increase (the row before has t = {}); the times must increase",
+                    lines[k],
+                    t[k],
+                    t[k - 1]
+                ),
+            });
         }
         let mut track = Track::new(n);
         track.t = t.clone();
@@ -329,7 +347,7 @@ mod tests {
     use super::*;
     use crate::study::error_measures::rotation_angle;
 
-    fn scene_with(bodies: &[&str]) -> Scene {
+    pub(super) fn scene_with(bodies: &[&str]) -> Scene {
         Scene {
             name: "t".into(),
             gravity: None,
@@ -391,6 +409,24 @@ mod tests {
             Err(ReferenceError::NotCovered(_))
         ));
         assert!(Table::read(&p, &scene_with(&["z"])).is_err());
+    }
+
+    /// Times that do not increase are refused at the row that goes back.
+    #[test]
+    fn times_that_do_not_increase_are_refused_at_their_line() {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let p = dir.path().join("ref.csv");
+        std::fs::write(
+            &p,
+            "t,b.x,b.y,b.z\n0,0,0,0\n0.1,0,0,0\n0.1,0,0,0\n0.3,0,0,0\n",
+        )
+        .expect("write");
+        let e = Table::read(&p, &scene_with(&["b"])).expect_err("refused");
+        assert!(
+            e.to_string()
+                .ends_with("line 4: t = 0.1 does not increase (the row before has t = 0.1); the times must increase"),
+            "{e}"
+        );
     }
 
     /// A ragged row in the middle used to end the data there silently, so the table no
@@ -477,5 +513,193 @@ mod tests {
     fn the_size_limit_is_named() {
         let m = too_large(MAX_TABLE_BYTES + 1);
         assert!(m.contains("more than the 1024 MiB"), "{m}");
+    }
+}
+
+/// Property tests of the table reader: on mutated and arbitrary files it never panics, and
+/// every error names the file, and the line when it is about a row.
+#[cfg(test)]
+mod props {
+    use super::*;
+    use proptest::prelude::*;
+    use proptest::test_runner::{Config, TestRunner};
+    use std::sync::atomic::{AtomicUsize, Ordering};
+
+    fn scene() -> Scene {
+        let mut s = tests::scene_with(&["b", "c"]);
+        s.name = "props".into();
+        s
+    }
+
+    /// A valid table: positions with velocities, orientations without, an extra column.
+    fn seed() -> String {
+        let mut text = String::from("t,b.x,b.y,b.z,b.vx,b.vy,b.vz,b.qw,b.qx,b.qy,b.qz,other\n");
+        for i in 0..6 {
+            let t = f64::from(i) * 0.1;
+            text.push_str(&format!(
+                "{t},{},{},0,{},{},0,{},0,0,{},7\n",
+                t.cos(),
+                t.sin(),
+                -t.sin(),
+                t.cos(),
+                (t / 2.0).cos(),
+                (t / 2.0).sin()
+            ));
+        }
+        text
+    }
+
+    /// Words a mutation writes in place of a field.
+    const WORDS: &[&str] = &[
+        "", "0", "-1", "1e308", "1e309", "nan", "inf", "-inf", "x", "t", "b.x", "b.qw", "\"",
+        "\"a,b\"", "0.3", "0.25", " 1 ", "1,2", "\r",
+    ];
+
+    #[derive(Clone, Debug)]
+    enum Edit {
+        Field {
+            line: usize,
+            field: usize,
+            word: usize,
+        },
+        Delete(usize),
+        Duplicate(usize),
+        Swap(usize, usize),
+        Truncate(usize),
+        Insert(usize, String),
+        /// Bytes that are not UTF-8 at a byte offset.
+        Bytes(usize),
+    }
+
+    fn edit() -> impl Strategy<Value = Edit> {
+        prop_oneof![
+            4 => (any::<usize>(), any::<usize>(), 0..WORDS.len())
+                .prop_map(|(line, field, word)| Edit::Field { line, field, word }),
+            1 => any::<usize>().prop_map(Edit::Delete),
+            1 => any::<usize>().prop_map(Edit::Duplicate),
+            1 => (any::<usize>(), any::<usize>()).prop_map(|(a, b)| Edit::Swap(a, b)),
+            1 => any::<usize>().prop_map(Edit::Truncate),
+            1 => (any::<usize>(), "[0-9,.\"a-z \\-]{0,30}").prop_map(|(at, s)| Edit::Insert(at, s)),
+            1 => any::<usize>().prop_map(Edit::Bytes),
+        ]
+    }
+
+    fn apply(bytes: &[u8], e: &Edit) -> Vec<u8> {
+        let text = String::from_utf8_lossy(bytes).into_owned();
+        let mut lines: Vec<String> = text.lines().map(str::to_string).collect();
+        let n = lines.len().max(1);
+        match e {
+            Edit::Field { line, field, word } => {
+                if let Some(l) = lines.get_mut(line % n) {
+                    let mut f: Vec<&str> = l.split(',').collect();
+                    let k = field % f.len();
+                    f[k] = WORDS[*word];
+                    *l = f.join(",");
+                }
+            }
+            Edit::Delete(i) => {
+                if !lines.is_empty() {
+                    lines.remove(i % n);
+                }
+            }
+            Edit::Duplicate(i) => {
+                if let Some(l) = lines.get(i % n).cloned() {
+                    lines.insert(i % n, l);
+                }
+            }
+            Edit::Swap(a, b) => {
+                if !lines.is_empty() {
+                    lines.swap(a % n, b % n);
+                }
+            }
+            Edit::Truncate(at) => return bytes[..at % (bytes.len() + 1)].to_vec(),
+            Edit::Insert(at, s) => lines.insert(at % (lines.len() + 1), s.clone()),
+            Edit::Bytes(at) => {
+                let mut b = bytes.to_vec();
+                b.splice(at % (b.len() + 1).., [0xff, 0xfe]);
+                return b;
+            }
+        }
+        let mut out = lines.join("\n");
+        out.push('\n');
+        out.into_bytes()
+    }
+
+    /// Errors about the whole file rather than one row: no line to name.
+    const WHOLE_FILE: &[&str] = &[
+        "no column `",
+        "the table has no",
+        "the table needs at least two rows",
+        "the file has no header line",
+    ];
+
+    /// The property: no panic; an error names the file, and a row's error its line. Returns
+    /// whether the table was read.
+    fn check(path: &Path, bytes: &[u8]) -> Result<bool, TestCaseError> {
+        std::fs::write(path, bytes).expect("write");
+        match Table::read(path, &scene()) {
+            Ok(_) => Ok(true),
+            Err(ReferenceError::Table { path: p, message }) => {
+                prop_assert_eq!(&p, path);
+                prop_assert!(
+                    message.contains("line") || WHOLE_FILE.iter().any(|w| message.starts_with(w)),
+                    "no line in: {}",
+                    message
+                );
+                Ok(false)
+            }
+            Err(e) => Err(TestCaseError::fail(format!("not a table error: {e}"))),
+        }
+    }
+
+    #[test]
+    fn mutated_tables_never_panic_and_errors_name_the_file_and_line() {
+        static READ: AtomicUsize = AtomicUsize::new(0);
+        let dir = tempfile::tempdir().expect("temp dir");
+        let path = dir.path().join("ref.csv");
+        assert_eq!(check(&path, seed().as_bytes()).ok(), Some(true));
+        let mut runner = TestRunner::new(Config {
+            cases: 1000,
+            failure_persistence: None,
+            ..Config::default()
+        });
+        runner
+            .run(&proptest::collection::vec(edit(), 1..4), |edits| {
+                let bytes = edits.iter().fold(seed().into_bytes(), |b, e| apply(&b, e));
+                if check(&path, &bytes)? {
+                    READ.fetch_add(1, Ordering::Relaxed);
+                }
+                Ok(())
+            })
+            .unwrap();
+        let read = READ.load(Ordering::Relaxed);
+        assert!(read > 10, "only {read} of 1000 mutated tables were read");
+    }
+
+    #[test]
+    fn arbitrary_files_never_panic() {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let path = dir.path().join("ref.csv");
+        let mut runner = TestRunner::new(Config {
+            cases: 500,
+            failure_persistence: None,
+            ..Config::default()
+        });
+        let head = prop_oneof![
+            Just("t,b.x,b.y,b.z\n"),
+            Just("t,b.qw,b.qx,b.qy,b.qz\n"),
+            Just("")
+        ];
+        runner
+            .run(
+                &(head, proptest::collection::vec(any::<u8>(), 0..200)),
+                |(h, body)| {
+                    let mut bytes = h.as_bytes().to_vec();
+                    bytes.extend(body);
+                    check(&path, &bytes)?;
+                    Ok(())
+                },
+            )
+            .unwrap();
     }
 }
