@@ -363,11 +363,8 @@ fn box_mesh(nx: usize, ny: usize, nz: usize) -> Mesh {
             }
         }
     }
-    let set = |i: usize| -> Vec<usize> {
-        (0..nodes.len())
-            .filter(|&n| n % (nx + 1) == i)
-            .collect()
-    };
+    let set =
+        |i: usize| -> Vec<usize> { (0..nodes.len()).filter(|&n| n % (nx + 1) == i).collect() };
     Mesh {
         name: "block".into(),
         kind: ElementKind::Hex8,
