@@ -1,4 +1,4 @@
-//! Generates the Rust of every rigid model in `models/` (and its subfolders) through the
+//! Generates the Rust of every model in `models/` the runtime simulates (and its subfolders) through the
 //! `build.rs` API — small scenes in both code layouts, large ones in the table layout they
 //! get by default — and a registry that visits each generated model.
 
@@ -30,7 +30,7 @@ fn main() {
     for f in &files {
         let loaded = mbdc_compiler::load_file(f, &[]);
         let Some(scene) = loaded.scene else { continue };
-        // Only scenes the rigid-body runtime simulates (no beams, no meshes).
+        // Only scenes the runtime simulates.
         if mbdc_runtime::interp::Interp::new(&scene).is_err() {
             continue;
         }

@@ -3,6 +3,7 @@
 //! | file | panels |
 //! |---|---|
 //! | `energy.svg` | kinetic, potential and total energy (J); relative drift `(E − E₀)/E_ref` |
+//! | `mesh_energy.svg` | scenes with meshes: kinetic, strain, hourglass, foundation energy, the work of the loads, dissipation (J), and their balance |
 //! | `constraints.svg` | holonomic violation `max |Φ|` per joint (log scale); velocity residual per nonholonomic joint |
 //! | `trajectories.svg` | mass-centre x, y, z (m) of up to a few bodies |
 //! | `beam_<name>.svg` | per beam: deflection, section forces and moments along it at the last frame ([`super::beam_plots`]) |
@@ -102,6 +103,7 @@ pub fn draw_run_plots(dir: &Path, opts: &RunPlotOptions) -> Result<Drawn, PlotEr
         ("energy.csv", energy_figure as FigFn),
         ("constraints.csv", constraints_figure as FigFn),
         ("bodies.csv", trajectories_figure as FigFn),
+        ("mesh_energy.csv", mesh_energy_figure as FigFn),
     ] {
         let path = dir.join(file);
         if !path.exists() {
@@ -176,6 +178,70 @@ fn energy_figure(
             title: format!("{model}: energy"),
             subtitle: sub.clone(),
             panels: vec![energies, drift],
+            columns: 1,
+            panel_size: (960, 340),
+        },
+    )))
+}
+
+/// The meshes' energy balance: the terms, and the balance against the energy in play.
+fn mesh_energy_figure(
+    path: &Path,
+    model: &str,
+    sub: &Option<String>,
+    _opts: &RunPlotOptions,
+) -> Result<FigResult, PlotError> {
+    let names: Vec<String> = [
+        "t",
+        "kinetic",
+        "strain",
+        "hourglass",
+        "foundation",
+        "external_work",
+        "dissipated",
+        "balance",
+    ]
+    .iter()
+    .map(|s| s.to_string())
+    .collect();
+    let c = data::read(path, &names)?;
+    if c.rows() == 0 {
+        return Ok(Err("mesh_energy.svg: mesh_energy.csv has no frames".into()));
+    }
+    let t = c.get("t").unwrap_or_default();
+    let col = |n: &str| c.get(n).unwrap_or_default();
+    let mut series = vec![
+        Series::line("kinetic", color(0), xy(t, col("kinetic"))),
+        Series::line("strain", color(1), xy(t, col("strain"))),
+        Series::line("work of the loads", color(2), xy(t, col("external_work"))),
+    ];
+    for (i, n) in ["hourglass", "foundation", "dissipated"].iter().enumerate() {
+        if col(n).iter().any(|v| *v != 0.0) {
+            series.push(Series::line(*n, color(3 + i), xy(t, col(n))));
+        }
+    }
+    let terms = Panel {
+        title: "Mesh energy".into(),
+        x: Axis::linear(TIME),
+        y: Axis::linear("energy (J)"),
+        series,
+        legend: LegendPos::LowerRight,
+        ..Panel::default()
+    };
+    let balance = Panel {
+        title: "Balance K + U + U_hg + U_f − W + D (constant up to the method's error)".into(),
+        x: Axis::linear(TIME),
+        y: Axis::linear("energy (J)"),
+        series: vec![Series::line("balance", BLACKISH, xy(t, col("balance")))],
+        legend: LegendPos::UpperRight,
+        ..Panel::default()
+    };
+    Ok(Ok((
+        "mesh_energy.svg",
+        Figure {
+            title: format!("{model}: mesh energy balance"),
+            subtitle: sub.clone(),
+            panels: vec![terms, balance],
             columns: 1,
             panel_size: (960, 340),
         },

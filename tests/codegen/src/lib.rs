@@ -36,6 +36,9 @@ impl Observer for Keep {
         v.extend(&s.lambda);
         v.extend(f.violation);
         v.extend(f.velocity_violation);
+        // meshes: every node's displacement and velocity, every element's stress
+        v.extend(s.mesh.u.iter().chain(&s.mesh.v).flatten());
+        v.extend(s.mesh.stress.iter().flatten());
         self.0.push(v);
     }
 }
@@ -70,6 +73,11 @@ pub fn methods(scene: &Scene) -> Vec<MethodSpec> {
     // models/bench (100 bodies) 1000 steps take hours, so they run there with the sparse
     // methods only. Up to 40 bodies (the 32-link chain) every method runs.
     let dense_ok = scene.bodies.len() <= 40;
+    // A scene of meshes alone runs the same explicit mesh integrator whatever the method:
+    // its own method is enough.
+    if scene.bodies.is_empty() && scene.beams.is_empty() && !scene.meshes.is_empty() {
+        return vec![scene.simulate.method.clone()];
+    }
     MethodSpec::NAMES
         .iter()
         .filter(|n| **n != "state_time")
