@@ -478,10 +478,7 @@ impl Mirror {
                     one(e, fs, st, sn, sc);
                 }
             }
-            assert!(
-                !scalars.iter().any(|s| !(s[3] > 0.0)),
-                "an element inverted"
-            );
+            assert!(scalars.iter().all(|s| s[3] > 0.0), "an element inverted");
         }
         let (slots, f_ext, f_found) = (&self.slots, &self.f_ext, &self.f_found);
         let gather = |n: usize, a: &mut [f64; 3], r: &mut [f64; 3]| {
