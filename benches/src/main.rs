@@ -6,6 +6,7 @@
 //! cargo run --release -p mbdc-bench -- startup [MBDC]     `mbdc run` to the first step, cold and warm
 //! cargo run --release -p mbdc-bench -- profile [STEPS]    the generated double pendulum alone (for perf)
 //! cargo run --release -p mbdc-bench -- beams [ROUNDS]      beams: cost per element-step against a rigid body's step and the core's peak
+//! cargo run --release -p mbdc-bench -- meshes [SCALE] [ROUNDS]  meshes: element rates against the measured bandwidth and flop rate
 //! ```
 //!
 //! Timings are interleaved rounds (every candidate once per round, in turn) and the best of
@@ -29,6 +30,8 @@ use mbdc_runtime::interp::Interp;
 use mbdc_runtime::scene::MethodSpec;
 use mbdc_runtime::system::{ConstraintEval, Need, System, Wrench};
 
+mod meshes;
+
 fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..")
 }
@@ -48,6 +51,15 @@ fn main() {
         Some("steps") => steps(args.get(1).and_then(|s| s.parse().ok()).unwrap_or(7)),
         Some("size") => size(),
         Some("beams") => beams(args.get(1).and_then(|s| s.parse().ok()).unwrap_or(5)),
+        Some("meshes") => meshes::meshes(
+            args.get(1).and_then(|s| s.parse().ok()).unwrap_or(0.1),
+            args.get(2).and_then(|s| s.parse().ok()).unwrap_or(3),
+        ),
+        Some("meshes-memory") => meshes::memory_child(
+            args.get(1).map(String::as_str).unwrap_or("Hex8Full"),
+            args.get(2).and_then(|s| s.parse().ok()).unwrap_or(1000),
+            args.get(3).and_then(|s| s.parse().ok()).unwrap_or(0),
+        ),
         Some("profile") => profile(args.get(1).and_then(|s| s.parse().ok()).unwrap_or(200_000)),
         Some("startup") => startup(
             &args
@@ -57,7 +69,7 @@ fn main() {
         ),
         _ => {
             eprintln!(
-                "usage: mbdc-bench steps [ROUNDS] | size | startup [MBDC] | profile [STEPS] | beams [ROUNDS]"
+                "usage: mbdc-bench steps [ROUNDS] | size | startup [MBDC] | profile [STEPS] | beams [ROUNDS] | meshes [SCALE] [ROUNDS]"
             );
             std::process::exit(2);
         }
