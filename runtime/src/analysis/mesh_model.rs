@@ -195,6 +195,7 @@ pub fn build(meshes: &[Mesh]) -> Result<MeshLayout, MeshError> {
                 c[2] = true;
             }
         }
+        check_sets(m).map_err(err)?;
         conditions(&mut l, m, &block, &volume_share).map_err(err)?;
         first_slot += block.elements() * npe;
         first_element += block.elements();
@@ -202,6 +203,72 @@ pub fn build(meshes: &[Mesh]) -> Result<MeshLayout, MeshError> {
     }
     plan(&mut l);
     Ok(l)
+}
+
+/// The node sets and conditions refer to what exists, and their values are finite (a scene
+/// not made by the compiler, e.g. read from JSON, may not).
+fn check_sets(m: &Mesh) -> Result<(), String> {
+    let faces = m.kind.faces().len();
+    for s in &m.node_sets {
+        if let Some(&n) = s.nodes.iter().find(|&&n| n >= m.nodes.len()) {
+            return Err(format!(
+                "set '{}' refers to node {n}, but the mesh has {} nodes",
+                s.name,
+                m.nodes.len()
+            ));
+        }
+        if let Some(&(e, f)) = s
+            .faces
+            .iter()
+            .find(|&&(e, f)| e >= m.elements.len() || f >= faces)
+        {
+            return Err(format!(
+                "set '{}' refers to face {f} of element {e}, but the mesh has {} elements of {faces} faces",
+                s.name,
+                m.elements.len()
+            ));
+        }
+    }
+    for c in &m.conditions {
+        let set = match c {
+            MeshCondition::Fixed { set }
+            | MeshCondition::Displacement { set, .. }
+            | MeshCondition::NodalLoad { set, .. }
+            | MeshCondition::Traction { set, .. }
+            | MeshCondition::Foundation { set, .. } => Some(*set),
+            MeshCondition::BodyForce { .. } => None,
+        };
+        if let Some(set) = set {
+            if set >= m.node_sets.len() {
+                return Err(format!(
+                    "a condition refers to node set {set}, but the mesh has {} sets",
+                    m.node_sets.len()
+                ));
+            }
+        }
+        let finite = match c {
+            MeshCondition::BodyForce { value } => value.iter().all(|v| v.is_finite()),
+            MeshCondition::Foundation { modulus, .. } => modulus.is_finite() && *modulus >= 0.0,
+            _ => true,
+        };
+        if !finite {
+            return Err(
+                "a body force or foundation modulus is not finite (or the modulus is negative)"
+                    .into(),
+            );
+        }
+        let fns: Vec<&Fn1> = match c {
+            MeshCondition::Displacement { value, .. } => value.iter().flatten().collect(),
+            MeshCondition::NodalLoad { value, .. } | MeshCondition::Traction { value, .. } => {
+                value.iter().collect()
+            }
+            _ => Vec::new(),
+        };
+        for f in fns {
+            crate::kernels::fn1::validate(f).map_err(|e| format!("a condition's function: {e}"))?;
+        }
+    }
+    Ok(())
 }
 
 /// The boundary conditions and loads of one mesh into the layout's tables.
