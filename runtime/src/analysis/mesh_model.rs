@@ -20,7 +20,10 @@ use std::collections::HashMap;
 use crate::contract::mesh_layout::{
     ElementBlock, FoundationSpring, LoadGroup, MeshLayout, Prescribed,
 };
-use crate::contract::scene::{ElementKind, Fn1, Material, Mesh, MeshCondition};
+use crate::contract::scene::{
+    ElementKind, Fn1, HourglassControl, Material, Mesh, MeshCondition, MeshFormulation,
+    MeshIntegration, MeshKinematics,
+};
 use crate::kernels::solid::{self, Elastic, ElementOptions, MAX_NODES};
 
 /// Why a mesh cannot be simulated.
@@ -45,16 +48,65 @@ pub fn elastic(m: &Material) -> Elastic {
     }
 }
 
-/// How the elements of a block are evaluated.
+/// How the elements of a block are evaluated: the block's thickness and plane mode, and
+/// its [`MeshFormulation`] mapped to the kernels' [`solid::Integration`] and
+/// [`solid::Kinematics`].
 pub fn options(b: &ElementBlock) -> ElementOptions {
+    let f = &b.formulation;
     ElementOptions {
         thickness: b.thickness,
         plane: match b.kind {
             ElementKind::Tri3PlaneStrain | ElementKind::Quad4PlaneStrain => solid::Plane::Strain,
             _ => solid::Plane::Stress,
         },
-        ..ElementOptions::default()
+        kinematics: match f.kinematics {
+            MeshKinematics::Small => solid::Kinematics::SmallStrain,
+            MeshKinematics::Green => solid::Kinematics::TotalLagrangian,
+        },
+        integration: match f.integration {
+            MeshIntegration::Full => solid::Integration::Full { bbar: false },
+            MeshIntegration::Bbar => solid::Integration::Full { bbar: true },
+            MeshIntegration::Reduced { hourglass } => solid::Integration::Reduced(match hourglass {
+                HourglassControl::Viscous { coefficient } => {
+                    solid::Hourglass::Viscous { coefficient }
+                }
+                HourglassControl::Stiffness { coefficient } => {
+                    solid::Hourglass::Stiffness { coefficient }
+                }
+            }),
+        },
     }
+}
+
+/// Whether an element kind takes an `integration` choice (hex8 and quad4; the others have
+/// one exact rule).
+pub fn takes_integration(kind: ElementKind) -> bool {
+    matches!(
+        kind,
+        ElementKind::Hex8 | ElementKind::Quad4PlaneStress | ElementKind::Quad4PlaneStrain
+    )
+}
+
+/// Check a mesh's formulation against its element kind (the compiler reports the same
+/// with spans; this guards scenes built by other means).
+fn check_formulation(kind: ElementKind, f: &MeshFormulation) -> Result<(), String> {
+    if f.integration != MeshIntegration::Full && !takes_integration(kind) {
+        return Err(format!(
+            "{:?} elements have one integration rule; only hex8 and quad4 take reduced or B-bar integration",
+            kind
+        ));
+    }
+    if let MeshIntegration::Reduced { hourglass } = f.integration {
+        let c = match hourglass {
+            HourglassControl::Viscous { coefficient } | HourglassControl::Stiffness { coefficient } => coefficient,
+        };
+        if !(c > 0.0 && c <= 1.0) {
+            return Err(format!(
+                "the hourglass coefficient must lie in (0, 1], got {c}"
+            ));
+        }
+    }
+    Ok(())
 }
 
 /// The reference coordinates of element `e` of block `b`.
@@ -126,6 +178,7 @@ pub fn build(meshes: &[Mesh]) -> Result<MeshLayout, MeshError> {
                 "the thickness (area for bars) must be positive and finite, got {thickness}"
             )));
         }
+        check_formulation(m.kind, &m.formulation).map_err(err)?;
         let first_node = l.x0.len();
         let npe = m.kind.nodes();
         let mut conn = Vec::with_capacity(m.elements.len() * npe);
@@ -155,6 +208,7 @@ pub fn build(meshes: &[Mesh]) -> Result<MeshLayout, MeshError> {
             kind: m.kind,
             material: *mat,
             thickness,
+            formulation: m.formulation,
             first_node,
             nodes: m.nodes.len(),
             conn,
