@@ -561,7 +561,7 @@ impl<'a> Lowerer<'a> {
     }
 
     /// `viscous(κ)` or `stiffness(κ)`, κ a plain number in (0, 1].
-    fn hourglass(&mut self, e: &Expr, sc: &Scope) -> R<HourglassControl> {
+    fn hourglass(&mut self, e: &'a Expr, sc: &Scope) -> R<HourglassControl> {
         let form = "`hourglass` is `viscous(COEFFICIENT)` or `stiffness(COEFFICIENT)`";
         let ExprKind::Call { func, args } = &e.kind else {
             return Err(self.report(
