@@ -599,7 +599,10 @@ model spin {{
         assert!(last.t > 1e-3);
         // The plate has turned by 90°: node 1 (0.1, 0) is at (0, 0.1).
         let u1 = last.mesh.u[1];
-        assert!((u1[0] + 0.1).abs() < 1e-12 && (u1[1] - 0.1).abs() < 1e-12, "{u1:?}");
+        assert!(
+            (u1[0] + 0.1).abs() < 1e-12 && (u1[1] - 0.1).abs() < 1e-12,
+            "{u1:?}"
+        );
         let s = last.mesh.stress[0];
         if strain == "green" {
             let worst = tr

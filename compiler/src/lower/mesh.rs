@@ -534,11 +534,9 @@ impl<'a> Lowerer<'a> {
                 hourglass: h.map(|h| h.0).unwrap_or_default(),
             },
             (r, Some((_, hspan))) => {
-                let mut d = Diagnostic::error(
-                    codes::MESH,
-                    "`hourglass` needs `integration reduced`",
-                )
-                .primary(sc.file, hspan, "");
+                let mut d =
+                    Diagnostic::error(codes::MESH, "`hourglass` needs `integration reduced`")
+                        .primary(sc.file, hspan, "");
                 if let Some((w, rspan)) = r {
                     d = d.secondary(sc.file, rspan, format!("the integration is `{w}`"));
                 }
@@ -588,14 +586,19 @@ impl<'a> Lowerer<'a> {
         let Some(ce) = a[0] else {
             return Err(Reported);
         };
-        let q = self.eval(ce, sc).and_then(|v| self.scalar_of(v, ce.span, sc))?;
+        let q = self
+            .eval(ce, sc)
+            .and_then(|v| self.scalar_of(v, ce.span, sc))?;
         self.expect_dim(&q, Dim::NONE, ce.span, sc, "an hourglass coefficient")?;
         let c = self.constant_of(&q, ce.span, sc, "an hourglass coefficient")?;
         if !(c > 0.0 && c <= 1.0) {
             return Err(self.report(
                 Diagnostic::error(
                     codes::INVALID_VALUE,
-                    format!("the hourglass coefficient must lie in (0, 1], found {}", num(c)),
+                    format!(
+                        "the hourglass coefficient must lie in (0, 1], found {}",
+                        num(c)
+                    ),
                 )
                 .primary(sc.file, ce.span, "")
                 .help("the usual values are 0.05–0.15 (Flanagan–Belytschko); 0.1 is the default"),

@@ -66,14 +66,16 @@ pub fn options(b: &ElementBlock) -> ElementOptions {
         integration: match f.integration {
             MeshIntegration::Full => solid::Integration::Full { bbar: false },
             MeshIntegration::Bbar => solid::Integration::Full { bbar: true },
-            MeshIntegration::Reduced { hourglass } => solid::Integration::Reduced(match hourglass {
-                HourglassControl::Viscous { coefficient } => {
-                    solid::Hourglass::Viscous { coefficient }
-                }
-                HourglassControl::Stiffness { coefficient } => {
-                    solid::Hourglass::Stiffness { coefficient }
-                }
-            }),
+            MeshIntegration::Reduced { hourglass } => {
+                solid::Integration::Reduced(match hourglass {
+                    HourglassControl::Viscous { coefficient } => {
+                        solid::Hourglass::Viscous { coefficient }
+                    }
+                    HourglassControl::Stiffness { coefficient } => {
+                        solid::Hourglass::Stiffness { coefficient }
+                    }
+                })
+            }
         },
     }
 }
@@ -98,7 +100,8 @@ fn check_formulation(kind: ElementKind, f: &MeshFormulation) -> Result<(), Strin
     }
     if let MeshIntegration::Reduced { hourglass } = f.integration {
         let c = match hourglass {
-            HourglassControl::Viscous { coefficient } | HourglassControl::Stiffness { coefficient } => coefficient,
+            HourglassControl::Viscous { coefficient }
+            | HourglassControl::Stiffness { coefficient } => coefficient,
         };
         if !(c > 0.0 && c <= 1.0) {
             return Err(format!(
