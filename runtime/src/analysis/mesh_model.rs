@@ -560,3 +560,94 @@ pub fn critical_step(l: &MeshLayout) -> Option<CriticalStep> {
         place: element_place(l, b, e),
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::contract::scene::Origin;
+
+    fn cube(kind: ElementKind, formulation: MeshFormulation) -> Mesh {
+        let (nodes, elements) = match kind {
+            ElementKind::Hex8 => (
+                vec![
+                    [0.0, 0.0, 0.0],
+                    [1.0, 0.0, 0.0],
+                    [1.0, 1.0, 0.0],
+                    [0.0, 1.0, 0.0],
+                    [0.0, 0.0, 1.0],
+                    [1.0, 0.0, 1.0],
+                    [1.0, 1.0, 1.0],
+                    [0.0, 1.0, 1.0],
+                ],
+                vec![(0..8).collect()],
+            ),
+            _ => (
+                vec![
+                    [0.0, 0.0, 0.0],
+                    [1.0, 0.0, 0.0],
+                    [0.0, 1.0, 0.0],
+                    [0.0, 0.0, 1.0],
+                ],
+                vec![(0..4).collect()],
+            ),
+        };
+        Mesh {
+            name: "m".into(),
+            kind,
+            material: Material {
+                e: 200e9,
+                nu: 0.3,
+                rho: 8000.0,
+            },
+            thickness: 1.0,
+            nodes,
+            elements,
+            node_sets: Vec::new(),
+            conditions: Vec::new(),
+            formulation,
+            origin: Origin::default(),
+        }
+    }
+
+    /// The scene's formulation reaches the kernels' options; a formulation that does not
+    /// fit the element kind, or a coefficient outside (0, 1], is refused.
+    #[test]
+    fn formulation_maps_to_kernel_options_and_is_checked() {
+        let reduced = |hourglass| MeshFormulation {
+            integration: MeshIntegration::Reduced { hourglass },
+            kinematics: MeshKinematics::Green,
+        };
+        let stiff = reduced(HourglassControl::Stiffness { coefficient: 0.05 });
+        let l = build(&[cube(ElementKind::Hex8, stiff)]).expect("valid");
+        let o = options(&l.blocks[0]);
+        assert_eq!(o.kinematics, solid::Kinematics::TotalLagrangian);
+        assert_eq!(
+            o.integration,
+            solid::Integration::Reduced(solid::Hourglass::Stiffness { coefficient: 0.05 })
+        );
+        let bbar = MeshFormulation {
+            integration: MeshIntegration::Bbar,
+            kinematics: MeshKinematics::Small,
+        };
+        let o = options(
+            &build(&[cube(ElementKind::Hex8, bbar)])
+                .expect("valid")
+                .blocks[0],
+        );
+        assert_eq!(o.integration, solid::Integration::Full { bbar: true });
+        assert_eq!(o.kinematics, solid::Kinematics::SmallStrain);
+        let o = options(
+            &build(&[cube(ElementKind::Hex8, MeshFormulation::default())])
+                .expect("valid")
+                .blocks[0],
+        );
+        assert_eq!(o.integration, solid::Integration::Full { bbar: false });
+        let err = build(&[cube(ElementKind::Tet4, bbar)]).expect_err("tet4 has one rule");
+        assert!(err.reason.contains("hex8 and quad4"), "{err}");
+        for c in [0.0, -0.1, 1.5, f64::NAN] {
+            let f = reduced(HourglassControl::Viscous { coefficient: c });
+            let err = build(&[cube(ElementKind::Hex8, f)]).expect_err("bad coefficient");
+            assert!(err.reason.contains("(0, 1]"), "{err}");
+        }
+    }
+}
