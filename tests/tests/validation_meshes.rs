@@ -273,7 +273,7 @@ model flipped {
     );
     // Element 3 with its nodes clockwise: turned inside out.
     scene.meshes[0].elements[3].reverse();
-    let err = Interp::new(&scene).err().expect("refused").to_string();
+    let err = Interp::new(&scene).expect_err("refused").to_string();
     assert!(
         err.contains("mesh 'plate'") && err.contains("element 3") && err.contains("centroid"),
         "{err}"

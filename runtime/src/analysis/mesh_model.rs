@@ -127,8 +127,8 @@ pub fn element_place(l: &MeshLayout, b: &ElementBlock, e: usize) -> String {
     let nodes = b.element_nodes(e);
     let mut c = [0.0; 3];
     for &n in nodes {
-        for k in 0..3 {
-            c[k] += l.x0[n as usize][k] / nodes.len() as f64;
+        for (ck, xk) in c.iter_mut().zip(l.x0[n as usize]) {
+            *ck += xk / nodes.len() as f64;
         }
     }
     let local: Vec<String> = nodes
@@ -315,8 +315,8 @@ fn conditions(
                 }
                 l.body_force.resize(l.x0.len(), [0.0; 3]);
                 for (i, &v) in volume_share.iter().enumerate() {
-                    for k in 0..3 {
-                        l.body_force[first + i][k] += v * value[k];
+                    for (f, b) in l.body_force[first + i].iter_mut().zip(value) {
+                        *f += v * b;
                     }
                 }
             }
@@ -371,8 +371,8 @@ fn face_shares(
             let g = nodes[a];
             let entry = acc.entry(g).or_insert((0.0, [0.0; 3]));
             entry.0 += shares[i];
-            for k in 0..3 {
-                entry.1[k] += shares[i] * normal[k];
+            for (s, nk) in entry.1.iter_mut().zip(normal) {
+                *s += shares[i] * nk;
             }
         }
     }
