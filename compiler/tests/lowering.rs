@@ -2,7 +2,10 @@
 //! inertia, time functions, meshes and beams.
 
 use mbdc_compiler::{load_str, Override, Scene};
-use mbdc_runtime::scene::{BodyRef, Fn1, ForceKind, JointKind, MeshCondition, MethodSpec};
+use mbdc_runtime::scene::{
+    BodyRef, Fn1, ForceKind, HourglassControl, JointKind, MeshCondition, MeshFormulation,
+    MeshIntegration, MeshKinematics, MethodSpec,
+};
 use nalgebra::{Quaternion, Vector3};
 
 fn scene(src: &str) -> Scene {
@@ -517,4 +520,161 @@ fn vector_functions_keep_units() {
         errors(&model("const d = norm((1 m, 2 s, 0))"))[0].0,
         "mbdc::unit-mismatch"
     );
+}
+
+/// A one-mesh model with the given element line and formulation lines.
+fn mesh_with(element: &str, lines: &str) -> String {
+    let (gen, thick) = match element {
+        "hex8" | "tet4" => (
+            "box(origin: (0, 0, 0) m, size: (1, 1, 1) m, divisions: (1, 1, 1))",
+            "",
+        ),
+        "bar2" => (
+            "line(origin: (0, 0, 0) m, size: (1, 0, 0) m, divisions: 2)",
+            "thickness 1 cm^2",
+        ),
+        _ => (
+            "rect(origin: (0, 0) m, size: (1, 1) m, divisions: (1, 1))",
+            "thickness 1 cm",
+        ),
+    };
+    model(&format!(
+        "material alu {{ E 70 GPa; nu 0.33; rho 2700 kg/m^3 }}\n mesh m {{\n element {element}\n {thick}\n {lines}\n generate {gen}\n material alu\n }}"
+    ))
+}
+
+/// The error of `src`, its code, message and the text under its primary label.
+fn error_at(src: &str) -> (String, String, String) {
+    let l = load_str("test.mbd", src, &[]);
+    assert!(l.has_errors(), "expected errors in\n{src}");
+    let d = l.errors().next().expect("an error");
+    let label = d
+        .labels
+        .iter()
+        .find(|l| l.primary)
+        .expect("a primary label");
+    (
+        d.code.to_string(),
+        d.message.clone(),
+        src[label.span.start..label.span.end].to_string(),
+    )
+}
+
+#[test]
+fn mesh_formulation_options() {
+    // Defaults: full integration, small strain.
+    let s = scene(&mesh_with("hex8", ""));
+    assert_eq!(s.meshes[0].formulation, MeshFormulation::default());
+    assert_eq!(
+        s.meshes[0].formulation,
+        MeshFormulation {
+            integration: MeshIntegration::Full,
+            kinematics: MeshKinematics::Small
+        }
+    );
+    // reduced defaults to viscous 0.1.
+    let s = scene(&mesh_with("hex8", "integration reduced\n strain green"));
+    assert_eq!(
+        s.meshes[0].formulation,
+        MeshFormulation {
+            integration: MeshIntegration::Reduced {
+                hourglass: HourglassControl::Viscous { coefficient: 0.1 }
+            },
+            kinematics: MeshKinematics::Green
+        }
+    );
+    let s = scene(&mesh_with(
+        "quad4",
+        "integration reduced\n hourglass stiffness(0.05)",
+    ));
+    assert_eq!(
+        s.meshes[0].formulation.integration,
+        MeshIntegration::Reduced {
+            hourglass: HourglassControl::Stiffness { coefficient: 0.05 }
+        }
+    );
+    let s = scene(&mesh_with("quad4, plane_strain", "integration bbar"));
+    assert_eq!(s.meshes[0].formulation.integration, MeshIntegration::Bbar);
+    // tet4, tri3 and bar2 take `strain` but no `integration`.
+    for kind in ["tet4", "tri3", "bar2"] {
+        let s = scene(&mesh_with(kind, "strain green"));
+        assert_eq!(s.meshes[0].formulation.kinematics, MeshKinematics::Green);
+        let (code, msg, at) = error_at(&mesh_with(kind, "integration reduced"));
+        assert_eq!(code, "mbdc::mesh");
+        assert!(
+            msg.contains("hex8 and quad4") && msg.contains(kind),
+            "{msg}"
+        );
+        assert_eq!(at, "reduced");
+    }
+    // Errors with their spans.
+    let cases = [
+        (
+            "hex8",
+            "integration half",
+            "mbdc::wrong-kind",
+            "`full`, `reduced` or `bbar`",
+            "half",
+        ),
+        (
+            "hex8",
+            "strain large",
+            "mbdc::wrong-kind",
+            "`small` or `green`",
+            "large",
+        ),
+        (
+            "hex8",
+            "hourglass viscous(0.1)",
+            "mbdc::mesh",
+            "needs `integration reduced`",
+            "viscous(0.1)",
+        ),
+        (
+            "hex8",
+            "integration bbar\n hourglass stiffness(0.1)",
+            "mbdc::mesh",
+            "needs `integration reduced`",
+            "stiffness(0.1)",
+        ),
+        (
+            "hex8",
+            "integration reduced\n hourglass viscous(0)",
+            "mbdc::invalid-value",
+            "(0, 1]",
+            "0",
+        ),
+        (
+            "hex8",
+            "integration reduced\n hourglass stiffness(1.5)",
+            "mbdc::invalid-value",
+            "(0, 1]",
+            "1.5",
+        ),
+        (
+            "hex8",
+            "integration reduced\n hourglass elastic(0.1)",
+            "mbdc::unknown-name",
+            "unknown hourglass control",
+            "elastic",
+        ),
+        (
+            "hex8",
+            "integration reduced\n hourglass 0.1",
+            "mbdc::wrong-kind",
+            "`viscous(COEFFICIENT)`",
+            "0.1",
+        ),
+    ];
+    for (kind, lines, code, msg, at) in cases {
+        let (c, m, a) = error_at(&mesh_with(kind, lines));
+        assert_eq!((c.as_str(), a.as_str()), (code, at), "{lines}: {m}");
+        assert!(m.contains(msg), "{lines}: {m}");
+    }
+    // A coefficient with a unit is a dimension error.
+    let (c, _, a) = error_at(&mesh_with(
+        "hex8",
+        "integration reduced\n hourglass viscous(0.1 m)",
+    ));
+    assert_eq!((c.as_str(), a.as_str()), ("mbdc::unit-mismatch", "0.1 m"));
 }

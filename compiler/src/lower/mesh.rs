@@ -4,7 +4,10 @@
 use std::collections::HashMap;
 
 use mbdc_dsl::ast::{Expr, ExprKind, ItemKind, Span};
-use mbdc_runtime::scene::{ElementKind, Fn1, Mesh, MeshCondition, NodeSet, Vec3};
+use mbdc_runtime::scene::{
+    ElementKind, Fn1, HourglassControl, Mesh, MeshCondition, MeshFormulation, MeshIntegration,
+    MeshKinematics, NodeSet, Vec3,
+};
 
 use super::body::num;
 use super::eval::ident_of;
@@ -28,6 +31,9 @@ const MESH_KEYS: &[Key] = &[
         repeat: false,
     },
     one("thickness"),
+    one("integration"),
+    one("hourglass"),
+    one("strain"),
     one("generate"),
     one("material"),
     Key {
@@ -266,6 +272,7 @@ impl<'a> Lowerer<'a> {
             )),
             (None, false) => Ok(1.0),
         };
+        let formulation = self.formulation(&props, sc, kind);
         // Nodes and elements.
         let mut imported: Option<Imported> = None;
         let imports: Vec<&mbdc_dsl::ast::Item> = props
@@ -312,7 +319,8 @@ impl<'a> Lowerer<'a> {
                 .help("keep one"),
             )),
         };
-        let (material, thickness, (nodes, elements)) = (material?, thickness?, geometry?);
+        let (material, thickness, formulation, (nodes, elements)) =
+            (material?, thickness?, formulation?, geometry?);
         let (lo, hi) = bbox(&nodes);
         let diag =
             ((hi[0] - lo[0]).powi(2) + (hi[1] - lo[1]).powi(2) + (hi[2] - lo[2]).powi(2)).sqrt();
@@ -442,7 +450,164 @@ impl<'a> Lowerer<'a> {
             elements,
             node_sets: sets,
             conditions,
+            formulation,
             origin: Sources::origin(sc.file, d.span),
+        })
+    }
+
+    /// `integration full | reduced | bbar` (hex8 and quad4), `hourglass viscous(κ)` or
+    /// `stiffness(κ)` (with `reduced` only; κ dimensionless in (0, 1], default viscous 0.1)
+    /// and `strain small | green`.
+    fn formulation(
+        &mut self,
+        props: &super::props::Props<'a>,
+        sc: &Scope,
+        kind: ElementKind,
+    ) -> R<MeshFormulation> {
+        let mut ok = true;
+        let kinematics = match props.value("strain") {
+            None => MeshKinematics::Small,
+            Some(e) => match ident_of(e) {
+                Some("small") => MeshKinematics::Small,
+                Some("green") => MeshKinematics::Green,
+                _ => {
+                    self.report(
+                        Diagnostic::error(codes::WRONG_KIND, "`strain` is `small` or `green`")
+                            .primary(sc.file, e.span, "")
+                            .help("`small`: linear elastic, small strain; `green`: Green–Lagrange strain with St Venant–Kirchhoff, for large rotations"),
+                    );
+                    ok = false;
+                    MeshKinematics::Small
+                }
+            },
+        };
+        let reduced = match props.value("integration") {
+            None => None,
+            Some(e) => {
+                let which = match ident_of(e) {
+                    Some(w @ ("full" | "reduced" | "bbar")) => Some(w),
+                    _ => {
+                        self.report(
+                            Diagnostic::error(
+                                codes::WRONG_KIND,
+                                "`integration` is `full`, `reduced` or `bbar`",
+                            )
+                            .primary(sc.file, e.span, "")
+                            .help("`full`: 2×2×2 (hex8) or 2×2 (quad4) Gauss points; `reduced`: one point with hourglass control; `bbar`: full with the mean dilatation, against volumetric locking"),
+                        );
+                        ok = false;
+                        None
+                    }
+                };
+                if which.is_some() && !mbdc_runtime::mesh_model::takes_integration(kind) {
+                    self.report(
+                        Diagnostic::error(
+                            codes::MESH,
+                            format!(
+                                "`integration` applies to hex8 and quad4 elements, not to {}",
+                                element_name(kind)
+                            ),
+                        )
+                        .primary(sc.file, e.span, "")
+                        .help(format!(
+                            "{} elements have one integration rule; remove `integration`",
+                            element_name(kind)
+                        )),
+                    );
+                    ok = false;
+                }
+                which.map(|w| (w, e.span))
+            }
+        };
+        let hourglass = match props.value("hourglass") {
+            None => None,
+            Some(e) => match self.hourglass(e, sc) {
+                Ok(h) => Some((h, e.span)),
+                Err(_) => {
+                    ok = false;
+                    None
+                }
+            },
+        };
+        let integration = match (reduced, hourglass) {
+            (Some(("reduced", _)), h) => MeshIntegration::Reduced {
+                hourglass: h.map(|h| h.0).unwrap_or_default(),
+            },
+            (r, Some((_, hspan))) => {
+                let mut d =
+                    Diagnostic::error(codes::MESH, "`hourglass` needs `integration reduced`")
+                        .primary(sc.file, hspan, "");
+                if let Some((w, rspan)) = r {
+                    d = d.secondary(sc.file, rspan, format!("the integration is `{w}`"));
+                }
+                self.report(d.help(
+                    "hourglass control stabilises one-point elements; fully integrated elements have no hourglass modes",
+                ));
+                ok = false;
+                MeshIntegration::Full
+            }
+            (Some(("bbar", _)), None) => MeshIntegration::Bbar,
+            _ => MeshIntegration::Full,
+        };
+        if !ok {
+            return Err(Reported);
+        }
+        Ok(MeshFormulation {
+            integration,
+            kinematics,
+        })
+    }
+
+    /// `viscous(κ)` or `stiffness(κ)`, κ a plain number in (0, 1].
+    fn hourglass(&mut self, e: &'a Expr, sc: &Scope) -> R<HourglassControl> {
+        let form = "`hourglass` is `viscous(COEFFICIENT)` or `stiffness(COEFFICIENT)`";
+        let ExprKind::Call { func, args } = &e.kind else {
+            return Err(self.report(
+                Diagnostic::error(codes::WRONG_KIND, form)
+                    .primary(sc.file, e.span, "")
+                    .help("for example `hourglass viscous(0.1)`; the coefficient is dimensionless, in (0, 1]"),
+            ));
+        };
+        let stiffness = match func.name.as_str() {
+            "viscous" => false,
+            "stiffness" => true,
+            other => {
+                return Err(self.report(
+                    Diagnostic::error(
+                        codes::UNKNOWN_NAME,
+                        format!("unknown hourglass control `{other}`"),
+                    )
+                    .primary(sc.file, func.span, "")
+                    .help("`viscous(κ)` (dissipative) or `stiffness(κ)` (elastic)"),
+                ))
+            }
+        };
+        let a = self.call_args(func, args, &[super::props::pos("coefficient")], sc, e.span)?;
+        let Some(ce) = a[0] else {
+            return Err(Reported);
+        };
+        let q = self
+            .eval(ce, sc)
+            .and_then(|v| self.scalar_of(v, ce.span, sc))?;
+        self.expect_dim(&q, Dim::NONE, ce.span, sc, "an hourglass coefficient")?;
+        let c = self.constant_of(&q, ce.span, sc, "an hourglass coefficient")?;
+        if !(c > 0.0 && c <= 1.0) {
+            return Err(self.report(
+                Diagnostic::error(
+                    codes::INVALID_VALUE,
+                    format!(
+                        "the hourglass coefficient must lie in (0, 1], found {}",
+                        num(c)
+                    ),
+                )
+                .primary(sc.file, ce.span, "")
+                .help("the usual values are 0.05–0.15 (Flanagan–Belytschko); 0.1 is the default"),
+            ));
+        }
+        Ok(if stiffness {
+            HourglassControl::Stiffness { coefficient: c }
+        } else {
+            HourglassControl::Viscous { coefficient: c }
         })
     }
 

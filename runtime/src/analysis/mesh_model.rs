@@ -20,7 +20,10 @@ use std::collections::HashMap;
 use crate::contract::mesh_layout::{
     ElementBlock, FoundationSpring, LoadGroup, MeshLayout, Prescribed,
 };
-use crate::contract::scene::{ElementKind, Fn1, Material, Mesh, MeshCondition};
+use crate::contract::scene::{
+    ElementKind, Fn1, HourglassControl, Material, Mesh, MeshCondition, MeshFormulation,
+    MeshIntegration, MeshKinematics,
+};
 use crate::kernels::solid::{self, Elastic, ElementOptions, MAX_NODES};
 
 /// Why a mesh cannot be simulated.
@@ -45,16 +48,68 @@ pub fn elastic(m: &Material) -> Elastic {
     }
 }
 
-/// How the elements of a block are evaluated.
+/// How the elements of a block are evaluated: the block's thickness and plane mode, and
+/// its [`MeshFormulation`] mapped to the kernels' [`solid::Integration`] and
+/// [`solid::Kinematics`].
 pub fn options(b: &ElementBlock) -> ElementOptions {
+    let f = &b.formulation;
     ElementOptions {
         thickness: b.thickness,
         plane: match b.kind {
             ElementKind::Tri3PlaneStrain | ElementKind::Quad4PlaneStrain => solid::Plane::Strain,
             _ => solid::Plane::Stress,
         },
-        ..ElementOptions::default()
+        kinematics: match f.kinematics {
+            MeshKinematics::Small => solid::Kinematics::SmallStrain,
+            MeshKinematics::Green => solid::Kinematics::TotalLagrangian,
+        },
+        integration: match f.integration {
+            MeshIntegration::Full => solid::Integration::Full { bbar: false },
+            MeshIntegration::Bbar => solid::Integration::Full { bbar: true },
+            MeshIntegration::Reduced { hourglass } => {
+                solid::Integration::Reduced(match hourglass {
+                    HourglassControl::Viscous { coefficient } => {
+                        solid::Hourglass::Viscous { coefficient }
+                    }
+                    HourglassControl::Stiffness { coefficient } => {
+                        solid::Hourglass::Stiffness { coefficient }
+                    }
+                })
+            }
+        },
     }
+}
+
+/// Whether an element kind takes an `integration` choice (hex8 and quad4; the others have
+/// one exact rule).
+pub fn takes_integration(kind: ElementKind) -> bool {
+    matches!(
+        kind,
+        ElementKind::Hex8 | ElementKind::Quad4PlaneStress | ElementKind::Quad4PlaneStrain
+    )
+}
+
+/// Check a mesh's formulation against its element kind (the compiler reports the same
+/// with spans; this guards scenes built by other means).
+fn check_formulation(kind: ElementKind, f: &MeshFormulation) -> Result<(), String> {
+    if f.integration != MeshIntegration::Full && !takes_integration(kind) {
+        return Err(format!(
+            "{:?} elements have one integration rule; only hex8 and quad4 take reduced or B-bar integration",
+            kind
+        ));
+    }
+    if let MeshIntegration::Reduced { hourglass } = f.integration {
+        let c = match hourglass {
+            HourglassControl::Viscous { coefficient }
+            | HourglassControl::Stiffness { coefficient } => coefficient,
+        };
+        if !(c > 0.0 && c <= 1.0) {
+            return Err(format!(
+                "the hourglass coefficient must lie in (0, 1], got {c}"
+            ));
+        }
+    }
+    Ok(())
 }
 
 /// The reference coordinates of element `e` of block `b`.
@@ -72,8 +127,8 @@ pub fn element_place(l: &MeshLayout, b: &ElementBlock, e: usize) -> String {
     let nodes = b.element_nodes(e);
     let mut c = [0.0; 3];
     for &n in nodes {
-        for k in 0..3 {
-            c[k] += l.x0[n as usize][k] / nodes.len() as f64;
+        for (ck, xk) in c.iter_mut().zip(l.x0[n as usize]) {
+            *ck += xk / nodes.len() as f64;
         }
     }
     let local: Vec<String> = nodes
@@ -126,6 +181,7 @@ pub fn build(meshes: &[Mesh]) -> Result<MeshLayout, MeshError> {
                 "the thickness (area for bars) must be positive and finite, got {thickness}"
             )));
         }
+        check_formulation(m.kind, &m.formulation).map_err(err)?;
         let first_node = l.x0.len();
         let npe = m.kind.nodes();
         let mut conn = Vec::with_capacity(m.elements.len() * npe);
@@ -155,6 +211,7 @@ pub fn build(meshes: &[Mesh]) -> Result<MeshLayout, MeshError> {
             kind: m.kind,
             material: *mat,
             thickness,
+            formulation: m.formulation,
             first_node,
             nodes: m.nodes.len(),
             conn,
@@ -325,8 +382,8 @@ fn conditions(
                 }
                 l.body_force.resize(l.x0.len(), [0.0; 3]);
                 for (i, &v) in volume_share.iter().enumerate() {
-                    for k in 0..3 {
-                        l.body_force[first + i][k] += v * value[k];
+                    for (f, b) in l.body_force[first + i].iter_mut().zip(value) {
+                        *f += v * b;
                     }
                 }
             }
@@ -381,8 +438,8 @@ fn face_shares(
             let g = nodes[a];
             let entry = acc.entry(g).or_insert((0.0, [0.0; 3]));
             entry.0 += shares[i];
-            for k in 0..3 {
-                entry.1[k] += shares[i] * normal[k];
+            for (s, nk) in entry.1.iter_mut().zip(normal) {
+                *s += shares[i] * nk;
             }
         }
     }
@@ -569,4 +626,95 @@ pub fn critical_step(l: &MeshLayout) -> Option<CriticalStep> {
         mesh: b.name.clone(),
         place: element_place(l, b, e),
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::contract::scene::Origin;
+
+    fn cube(kind: ElementKind, formulation: MeshFormulation) -> Mesh {
+        let (nodes, elements) = match kind {
+            ElementKind::Hex8 => (
+                vec![
+                    [0.0, 0.0, 0.0],
+                    [1.0, 0.0, 0.0],
+                    [1.0, 1.0, 0.0],
+                    [0.0, 1.0, 0.0],
+                    [0.0, 0.0, 1.0],
+                    [1.0, 0.0, 1.0],
+                    [1.0, 1.0, 1.0],
+                    [0.0, 1.0, 1.0],
+                ],
+                vec![(0..8).collect()],
+            ),
+            _ => (
+                vec![
+                    [0.0, 0.0, 0.0],
+                    [1.0, 0.0, 0.0],
+                    [0.0, 1.0, 0.0],
+                    [0.0, 0.0, 1.0],
+                ],
+                vec![(0..4).collect()],
+            ),
+        };
+        Mesh {
+            name: "m".into(),
+            kind,
+            material: Material {
+                e: 200e9,
+                nu: 0.3,
+                rho: 8000.0,
+            },
+            thickness: 1.0,
+            nodes,
+            elements,
+            node_sets: Vec::new(),
+            conditions: Vec::new(),
+            formulation,
+            origin: Origin::default(),
+        }
+    }
+
+    /// The scene's formulation reaches the kernels' options; a formulation that does not
+    /// fit the element kind, or a coefficient outside (0, 1], is refused.
+    #[test]
+    fn formulation_maps_to_kernel_options_and_is_checked() {
+        let reduced = |hourglass| MeshFormulation {
+            integration: MeshIntegration::Reduced { hourglass },
+            kinematics: MeshKinematics::Green,
+        };
+        let stiff = reduced(HourglassControl::Stiffness { coefficient: 0.05 });
+        let l = build(&[cube(ElementKind::Hex8, stiff)]).expect("valid");
+        let o = options(&l.blocks[0]);
+        assert_eq!(o.kinematics, solid::Kinematics::TotalLagrangian);
+        assert_eq!(
+            o.integration,
+            solid::Integration::Reduced(solid::Hourglass::Stiffness { coefficient: 0.05 })
+        );
+        let bbar = MeshFormulation {
+            integration: MeshIntegration::Bbar,
+            kinematics: MeshKinematics::Small,
+        };
+        let o = options(
+            &build(&[cube(ElementKind::Hex8, bbar)])
+                .expect("valid")
+                .blocks[0],
+        );
+        assert_eq!(o.integration, solid::Integration::Full { bbar: true });
+        assert_eq!(o.kinematics, solid::Kinematics::SmallStrain);
+        let o = options(
+            &build(&[cube(ElementKind::Hex8, MeshFormulation::default())])
+                .expect("valid")
+                .blocks[0],
+        );
+        assert_eq!(o.integration, solid::Integration::Full { bbar: false });
+        let err = build(&[cube(ElementKind::Tet4, bbar)]).expect_err("tet4 has one rule");
+        assert!(err.reason.contains("hex8 and quad4"), "{err}");
+        for c in [0.0, -0.1, 1.5, f64::NAN] {
+            let f = reduced(HourglassControl::Viscous { coefficient: c });
+            let err = build(&[cube(ElementKind::Hex8, f)]).expect_err("bad coefficient");
+            assert!(err.reason.contains("(0, 1]"), "{err}");
+        }
+    }
 }

@@ -4,7 +4,7 @@
 //! over nodes. Built once from a scene by [`crate::analysis::mesh_model`]; the topological
 //! plan (which element slots each node sums, notes D §5: fixed in time) is precomputed.
 
-use super::scene::{ElementKind, Fn1, Material};
+use super::scene::{ElementKind, Fn1, Material, MeshFormulation};
 
 /// The meshes of a system (empty for a scene without meshes).
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -65,6 +65,9 @@ pub struct ElementBlock {
     pub material: Material,
     /// 2-D elements: thickness (m); bars: area (m²); solids: unused (1).
     pub thickness: f64,
+    /// Quadrature and strain measure (from the mesh's `integration`, `hourglass` and
+    /// `strain`).
+    pub formulation: MeshFormulation,
     /// Global node index of the mesh's node 0 (its nodes are consecutive).
     pub first_node: usize,
     /// Number of the mesh's nodes.

@@ -570,8 +570,71 @@ pub struct Mesh {
     pub node_sets: Vec<NodeSet>,
     /// Boundary conditions and loads, applied in order.
     pub conditions: Vec<MeshCondition>,
+    /// Quadrature and strain measure of the elements (`integration`, `hourglass`,
+    /// `strain`); absent in older scene files: full integration, small strain.
+    #[serde(default)]
+    pub formulation: MeshFormulation,
     /// Source location.
     pub origin: Origin,
+}
+
+/// How the elements of a mesh are evaluated: their quadrature and their strain measure.
+/// Plain data; the runtime maps it to the kernels' options.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct MeshFormulation {
+    /// Quadrature (hex8 and quad4; the other kinds have one, exact, rule).
+    pub integration: MeshIntegration,
+    /// Strain measure and stress law.
+    pub kinematics: MeshKinematics,
+}
+
+/// Quadrature of hex8 and quad4 elements.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub enum MeshIntegration {
+    /// Full Gauss quadrature (2×2×2, 2×2).
+    #[default]
+    Full,
+    /// Full quadrature with the B-bar (mean dilatation) volumetric strain, against
+    /// volumetric locking as ν → 0.5.
+    Bbar,
+    /// One point (Flanagan–Belytschko uniform strain) with hourglass control.
+    Reduced {
+        /// The hourglass control.
+        hourglass: HourglassControl,
+    },
+}
+
+/// Flanagan–Belytschko hourglass control of one-point elements.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub enum HourglassControl {
+    /// Forces proportional to the hourglass velocities (dissipative).
+    Viscous {
+        /// Dimensionless coefficient in (0, 1].
+        coefficient: f64,
+    },
+    /// Forces proportional to the hourglass displacements (stores energy).
+    Stiffness {
+        /// Dimensionless coefficient in (0, 1].
+        coefficient: f64,
+    },
+}
+
+impl Default for HourglassControl {
+    /// Viscous, 0.1 (the middle of the usual 0.05–0.15).
+    fn default() -> Self {
+        HourglassControl::Viscous { coefficient: 0.1 }
+    }
+}
+
+/// Strain measure and stress law of a mesh's elements.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub enum MeshKinematics {
+    /// Small strain, linear elastic (`strain small`).
+    #[default]
+    Small,
+    /// Green–Lagrange strain, St Venant–Kirchhoff, total Lagrangian (`strain green`):
+    /// exact under large rigid rotations.
+    Green,
 }
 
 /// A named set of nodes (and the element faces/edges they bound, for tractions).
