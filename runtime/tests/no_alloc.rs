@@ -402,6 +402,7 @@ fn box_mesh(nx: usize, ny: usize, nz: usize) -> Mesh {
                 value: [0.0, 0.0, -7850.0 * 9.81],
             },
         ],
+        formulation: MeshFormulation::default(),
         origin: Origin::default(),
     }
 }

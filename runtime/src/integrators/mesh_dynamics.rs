@@ -362,7 +362,10 @@ impl MeshDynamics {
                 }
             }
             // An inverted element stops the run where it happened.
-            if let Some(e) = scalars.iter().position(|s| !(s.min_jacobian > 0.0)) {
+            if let Some(e) = scalars
+                .iter()
+                .position(|s| s.min_jacobian.is_nan() || s.min_jacobian <= 0.0)
+            {
                 return Err(StepError::Mesh {
                     mesh: b.name.clone(),
                     place: element_place(l, b, e),
