@@ -14,16 +14,73 @@ use std::path::{Path, PathBuf};
 use super::{Frame, OutputError, OutputErrorKind};
 use crate::contract::system::Layout;
 
-/// The beams' `.vtp` files of a run and their `.pvd` index.
-pub(crate) struct BeamSeries {
-    /// `OUTDIR/beams/`.
+/// A ParaView time series: one file per frame in `OUTDIR/STEM/` and the collection
+/// `OUTDIR/STEM.pvd` indexing them by time (shared by the beams' and the meshes' series).
+pub(crate) struct PvdSeries {
+    /// `OUTDIR/STEM/`.
     dir: PathBuf,
-    /// `OUTDIR/beams.pvd`.
+    /// `STEM`: the folder and the files' prefix.
+    stem: &'static str,
+    /// `OUTDIR/STEM.pvd`.
     pvd: PathBuf,
     /// The `<DataSet>` lines written so far.
     entries: String,
     /// Frames written.
     frames: u64,
+}
+
+impl PvdSeries {
+    /// Create `OUTDIR/STEM/` and an empty `STEM.pvd`.
+    pub(crate) fn create(outdir: &Path, stem: &'static str) -> Result<PvdSeries, OutputError> {
+        let dir = outdir.join(stem);
+        std::fs::create_dir_all(&dir)
+            .map_err(|e| OutputError::io(OutputErrorKind::CreateDir, &dir, e))?;
+        let s = PvdSeries {
+            dir,
+            stem,
+            pvd: outdir.join(format!("{stem}.pvd")),
+            entries: String::new(),
+            frames: 0,
+        };
+        s.write_index()?;
+        Ok(s)
+    }
+
+    /// Write the next frame's file (`STEM_NNNNNN.EXT`) at time `t` and add it to the index
+    /// (the index itself is written by [`PvdSeries::write_index`]).
+    pub(crate) fn add(&mut self, t: f64, ext: &str, bytes: &[u8]) -> Result<(), OutputError> {
+        let name = format!("{}_{:06}.{ext}", self.stem, self.frames);
+        let path = self.dir.join(&name);
+        std::fs::write(&path, bytes)
+            .map_err(|e| OutputError::io(OutputErrorKind::Write, &path, e))?;
+        let _ = writeln!(
+            self.entries,
+            "    <DataSet timestep=\"{t}\" part=\"0\" file=\"{}/{name}\"/>",
+            self.stem
+        );
+        self.frames += 1;
+        Ok(())
+    }
+
+    /// Rewrite the `.pvd` with the frames written so far (atomically: a temporary file,
+    /// then a rename, so a reader or a killed run never sees half an index).
+    pub(crate) fn write_index(&self) -> Result<(), OutputError> {
+        let text = format!(
+            "<?xml version=\"1.0\"?>\n<VTKFile type=\"Collection\" version=\"0.1\">\n  <Collection>\n{}  </Collection>\n</VTKFile>\n",
+            self.entries
+        );
+        let tmp = self.pvd.with_extension("pvd.tmp");
+        std::fs::write(&tmp, text.as_bytes())
+            .map_err(|e| OutputError::io(OutputErrorKind::Write, &tmp, e))?;
+        std::fs::rename(&tmp, &self.pvd)
+            .map_err(|e| OutputError::io(OutputErrorKind::Write, &self.pvd, e))
+    }
+}
+
+/// The beams' `.vtp` files of a run and their `.pvd` index.
+pub(crate) struct BeamSeries {
+    /// The files and their index.
+    series: PvdSeries,
     /// Scratch for one file.
     buf: String,
 }
@@ -31,25 +88,16 @@ pub(crate) struct BeamSeries {
 impl BeamSeries {
     /// Create `OUTDIR/beams/` and an empty `beams.pvd`.
     pub(crate) fn create(outdir: &Path) -> Result<BeamSeries, OutputError> {
-        let dir = outdir.join("beams");
-        std::fs::create_dir_all(&dir)
-            .map_err(|e| OutputError::io(OutputErrorKind::CreateDir, &dir, e))?;
-        let s = BeamSeries {
-            dir,
-            pvd: outdir.join("beams.pvd"),
-            entries: String::new(),
-            frames: 0,
+        Ok(BeamSeries {
+            series: PvdSeries::create(outdir, "beams")?,
             buf: String::new(),
-        };
-        s.write_index()?;
-        Ok(s)
+        })
     }
 
     /// Write the frame's `.vtp` file and add it to the index (the index itself is written
     /// by [`BeamSeries::write_index`]).
     pub(crate) fn write_frame(&mut self, layout: &Layout, f: &Frame) -> Result<(), OutputError> {
         let bl = &layout.beams;
-        let name = format!("beams_{:06}.vtp", self.frames);
         let points: usize = bl.beams.iter().map(|b| b.elements + 1).sum();
         let cells = bl.elements.len();
         let b = &mut self.buf;
@@ -98,29 +146,11 @@ impl BeamSeries {
             b.push_str("</DataArray>\n");
         }
         b.push_str("</CellData>\n</Piece>\n</PolyData>\n</VTKFile>\n");
-        let path = self.dir.join(&name);
-        std::fs::write(&path, b.as_bytes())
-            .map_err(|e| OutputError::io(OutputErrorKind::Write, &path, e))?;
-        let _ = writeln!(
-            self.entries,
-            "    <DataSet timestep=\"{}\" part=\"0\" file=\"beams/{name}\"/>",
-            f.t
-        );
-        self.frames += 1;
-        Ok(())
+        self.series.add(f.t, "vtp", b.as_bytes())
     }
 
-    /// Rewrite `beams.pvd` with the frames written so far (atomically: a temporary file,
-    /// then a rename, so a reader or a killed run never sees half an index).
+    /// Rewrite `beams.pvd` with the frames written so far.
     pub(crate) fn write_index(&self) -> Result<(), OutputError> {
-        let text = format!(
-            "<?xml version=\"1.0\"?>\n<VTKFile type=\"Collection\" version=\"0.1\">\n  <Collection>\n{}  </Collection>\n</VTKFile>\n",
-            self.entries
-        );
-        let tmp = self.pvd.with_extension("pvd.tmp");
-        std::fs::write(&tmp, text.as_bytes())
-            .map_err(|e| OutputError::io(OutputErrorKind::Write, &tmp, e))?;
-        std::fs::rename(&tmp, &self.pvd)
-            .map_err(|e| OutputError::io(OutputErrorKind::Write, &self.pvd, e))
+        self.series.write_index()
     }
 }

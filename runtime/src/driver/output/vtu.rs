@@ -10,9 +10,10 @@
 //! the results-at-scale issue replaces it by a binary one-file series.
 
 use std::fmt::Write as _;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
-use super::{Frame, OutputError, OutputErrorKind};
+use super::vtk::PvdSeries;
+use super::{Frame, OutputError};
 use crate::contract::scene::ElementKind;
 use crate::contract::system::Layout;
 
@@ -48,14 +49,8 @@ pub fn von_mises(s: &[f64; 6]) -> f64 {
 
 /// The meshes' `.vtu` files of a run and their `.pvd` index.
 pub(crate) struct MeshSeries {
-    /// `OUTDIR/mesh/`.
-    dir: PathBuf,
-    /// `OUTDIR/mesh.pvd`.
-    pvd: PathBuf,
-    /// The `<DataSet>` lines written so far.
-    entries: String,
-    /// Frames written.
-    frames: u64,
+    /// The files and their index.
+    series: PvdSeries,
     /// The constant part of every file: points, cells, types, mesh index.
     geometry: String,
     /// Scratch for one file.
@@ -65,9 +60,7 @@ pub(crate) struct MeshSeries {
 impl MeshSeries {
     /// Create `OUTDIR/mesh/` and an empty `mesh.pvd`.
     pub(crate) fn create(outdir: &Path, layout: &Layout) -> Result<MeshSeries, OutputError> {
-        let dir = outdir.join("mesh");
-        std::fs::create_dir_all(&dir)
-            .map_err(|e| OutputError::io(OutputErrorKind::CreateDir, &dir, e))?;
+        let series = PvdSeries::create(outdir, "mesh")?;
         let ml = &layout.meshes;
         let mut g = String::new();
         g.push_str(
@@ -102,23 +95,17 @@ impl MeshSeries {
             }
         }
         g.push_str("</DataArray>\n</Cells>\n");
-        let s = MeshSeries {
-            dir,
-            pvd: outdir.join("mesh.pvd"),
-            entries: String::new(),
-            frames: 0,
+        Ok(MeshSeries {
+            series,
             geometry: g,
             buf: String::new(),
-        };
-        s.write_index()?;
-        Ok(s)
+        })
     }
 
     /// Write the frame's `.vtu` file and add it to the index (the index itself is written
     /// by [`MeshSeries::write_index`]).
     pub(crate) fn write_frame(&mut self, layout: &Layout, f: &Frame) -> Result<(), OutputError> {
         let ml = &layout.meshes;
-        let name = format!("mesh_{:06}.vtu", self.frames);
         let b = &mut self.buf;
         b.clear();
         b.push_str("<?xml version=\"1.0\"?>\n<VTKFile type=\"UnstructuredGrid\" version=\"0.1\" byte_order=\"LittleEndian\">\n<UnstructuredGrid>\n");
@@ -162,29 +149,11 @@ impl MeshSeries {
             }
         }
         b.push_str("</DataArray>\n</CellData>\n</Piece>\n</UnstructuredGrid>\n</VTKFile>\n");
-        let path = self.dir.join(&name);
-        std::fs::write(&path, b.as_bytes())
-            .map_err(|e| OutputError::io(OutputErrorKind::Write, &path, e))?;
-        let _ = writeln!(
-            self.entries,
-            "    <DataSet timestep=\"{}\" part=\"0\" file=\"mesh/{name}\"/>",
-            f.t
-        );
-        self.frames += 1;
-        Ok(())
+        self.series.add(f.t, "vtu", b.as_bytes())
     }
 
-    /// Rewrite `mesh.pvd` with the frames written so far (atomically: a temporary file,
-    /// then a rename).
+    /// Rewrite `mesh.pvd` with the frames written so far.
     pub(crate) fn write_index(&self) -> Result<(), OutputError> {
-        let text = format!(
-            "<?xml version=\"1.0\"?>\n<VTKFile type=\"Collection\" version=\"0.1\">\n  <Collection>\n{}  </Collection>\n</VTKFile>\n",
-            self.entries
-        );
-        let tmp = self.pvd.with_extension("pvd.tmp");
-        std::fs::write(&tmp, text.as_bytes())
-            .map_err(|e| OutputError::io(OutputErrorKind::Write, &tmp, e))?;
-        std::fs::rename(&tmp, &self.pvd)
-            .map_err(|e| OutputError::io(OutputErrorKind::Write, &self.pvd, e))
+        self.series.write_index()
     }
 }
