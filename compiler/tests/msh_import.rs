@@ -42,3 +42,37 @@ fn imports_quads_and_groups() {
     assert!(d.message.contains("has no tri3 elements"), "{}", d.message);
     assert_eq!(d.help.as_deref(), Some("it has: line2 × 2, quad4 × 2"));
 }
+
+/// An import warns about what it leaves out or cannot connect: a triangle in a quad4 mesh
+/// (a hole), a node no quad uses, and two nodes at one place (a crack between the quads).
+#[test]
+fn warns_about_left_out_elements_stray_and_coincident_nodes() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data");
+    let src = "model m {\n  material alu { E 70 GPa; nu 0.33; rho 2700 kg/m^3 }\n  mesh p {\n    element quad4\n    thickness 1 cm\n    import \"cracked_mixed.msh\"\n    material alu\n  }\n  simulate { duration 1 ms; step 1 us }\n}\n";
+    let name = dir.join("import_test.mbd");
+    let loaded = mbdc_compiler::load_str(&name.to_string_lossy(), src, &[]);
+    assert!(!loaded.has_errors(), "{}", loaded.render_plain());
+    let text = loaded.render_plain();
+    let warnings: Vec<&str> = text.lines().filter(|l| l.starts_with("warning")).collect();
+    assert_eq!(warnings.len(), 3, "{text}");
+    assert!(
+        text.contains("also has 1 tri3 element(s), which a quad4 mesh leaves out"),
+        "{text}"
+    );
+    assert!(
+        text.contains("2 of the 9 nodes of `") && text.contains("(node 8, 9)"),
+        "{text}"
+    );
+    assert!(
+        text.contains("has 1 pair(s) of nodes at the same place, first nodes 2 and 7 at (1, 0, 0)"),
+        "{text}"
+    );
+    // The clean file warns about nothing.
+    let clean = src.replace("cracked_mixed.msh", "two_quads.msh");
+    let loaded = mbdc_compiler::load_str(&name.to_string_lossy(), &clean, &[]);
+    assert!(
+        !loaded.render_plain().contains("warning"),
+        "{}",
+        loaded.render_plain()
+    );
+}

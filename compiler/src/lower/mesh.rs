@@ -1029,6 +1029,7 @@ impl<'a> Lowerer<'a> {
         }
         tags.sort_unstable();
         tags.dedup();
+        self.warn_left_out(&data, want, kind, &tags, &display, sc, e.span);
         if tags.len() > MAX_MESH_ITEMS {
             return Err(self.report(
                 Diagnostic::error(codes::LIMIT, "the imported mesh is too large")
@@ -1078,6 +1079,7 @@ impl<'a> Lowerer<'a> {
                     .collect(),
             );
         }
+        self.warn_duplicate_nodes(&nodes, &tags, &display, sc, e.span);
         Ok((
             nodes,
             elements,
@@ -1087,6 +1089,115 @@ impl<'a> Lowerer<'a> {
                 file: fid,
             },
         ))
+    }
+
+    /// Warns about what an import leaves out: elements of the mesh's dimension but of
+    /// another type (a mixed mesh: the mesh would have holes where they were), and nodes
+    /// that no element of the mesh's kind uses.
+    #[allow(clippy::too_many_arguments)]
+    fn warn_left_out(
+        &mut self,
+        data: &msh::MshData,
+        want: u32,
+        kind: ElementKind,
+        tags: &[usize],
+        display: &str,
+        sc: &Scope,
+        span: Span,
+    ) {
+        let dim = msh_dimension(want);
+        let mut other: Vec<(u32, usize)> = Vec::new();
+        for el in data.elements.iter().filter(|el| el.etype != want) {
+            if msh_dimension(el.etype) == dim {
+                match other.iter_mut().find(|(t, _)| *t == el.etype) {
+                    Some((_, n)) => *n += 1,
+                    None => other.push((el.etype, 1)),
+                }
+            }
+        }
+        if !other.is_empty() {
+            other.sort_unstable();
+            let list = other
+                .iter()
+                .map(|(t, n)| format!("{n} {}", msh::type_name(*t)))
+                .collect::<Vec<_>>()
+                .join(", ");
+            self.report(
+                Diagnostic::warning(
+                    codes::MESH,
+                    format!(
+                        "`{display}` also has {list} element(s), which a {} mesh leaves out",
+                        element_name(kind)
+                    ),
+                )
+                .primary(sc.file, span, "")
+                .help(format!(
+                    "the mesh has holes where they were: mesh the part with {} elements only (for hex8 in Gmsh: `Mesh.RecombineAll = 1` and `Mesh.SubdivisionAlgorithm = 2`; quadratic elements: `Mesh.ElementOrder = 1`)",
+                    element_name(kind)
+                )),
+            );
+        }
+        let unused = data.nodes.len().saturating_sub(tags.len());
+        if unused > 0 {
+            let mut first: Vec<usize> = data
+                .nodes
+                .keys()
+                .copied()
+                .filter(|t| tags.binary_search(t).is_err())
+                .collect();
+            first.sort_unstable();
+            first.truncate(5);
+            let list = first
+                .iter()
+                .map(|t| t.to_string())
+                .collect::<Vec<_>>()
+                .join(", ");
+            self.report(
+                Diagnostic::warning(
+                    codes::MESH,
+                    format!(
+                        "{unused} of the {} nodes of `{display}` belong to no {} element and are left out (node {list}{})",
+                        data.nodes.len(),
+                        element_name(kind),
+                        if unused > first.len() { ", …" } else { "" }
+                    ),
+                )
+                .primary(sc.file, span, "")
+                .help("loads and sets only see the nodes of the mesh's elements; remove the stray nodes in the mesher"),
+            );
+        }
+    }
+
+    /// Warns about nodes at the same place (within 1e-9 of the mesh's size): the elements
+    /// on either side of them are not connected, so the mesh has a crack there.
+    fn warn_duplicate_nodes(
+        &mut self,
+        nodes: &[Vec3],
+        tags: &[usize],
+        display: &str,
+        sc: &Scope,
+        span: Span,
+    ) {
+        let pairs = coincident_nodes(nodes);
+        if let Some(&(a, b)) = pairs.first() {
+            let p = nodes[a];
+            self.report(
+                Diagnostic::warning(
+                    codes::MESH,
+                    format!(
+                        "`{display}` has {} pair(s) of nodes at the same place, first nodes {} and {} at ({}, {}, {})",
+                        pairs.len(),
+                        tags[a],
+                        tags[b],
+                        num(p[0]),
+                        num(p[1]),
+                        num(p[2])
+                    ),
+                )
+                .primary(sc.file, span, "")
+                .help("elements that share a place but not a node are not connected (a crack); merge them in the mesher (Gmsh: `Coherence Mesh;`, or `Geometry.Tolerance`)"),
+            );
+        }
     }
 
     fn set_members(
@@ -1350,6 +1461,46 @@ impl<'a> Lowerer<'a> {
     }
 }
 
+/// The dimension of a Gmsh element type (0 for points and types mbdc does not know).
+fn msh_dimension(etype: u32) -> u8 {
+    match etype {
+        1 | 8 | 26..=28 => 1,
+        2 | 3 | 9 | 10 | 16 | 20..=25 => 2,
+        4..=7 | 11..=14 | 17..=19 | 29..=31 => 3,
+        _ => 0,
+    }
+}
+
+/// The pairs of nodes within 1e-9 of the bounding-box diagonal of each other, sorted: a
+/// hash grid of cells the size of the tolerance, each node compared with the nodes of the
+/// 27 cells around it (linear time for any mesh, also when many nodes share a coordinate).
+pub fn coincident_nodes(nodes: &[Vec3]) -> Vec<(usize, usize)> {
+    let (lo, hi) = bbox(nodes);
+    let diag = ((hi[0] - lo[0]).powi(2) + (hi[1] - lo[1]).powi(2) + (hi[2] - lo[2]).powi(2)).sqrt();
+    let tol = 1e-9 * if diag > 0.0 { diag } else { 1.0 };
+    let cell =
+        |p: &Vec3| -> [i64; 3] { std::array::from_fn(|k| ((p[k] - lo[k]) / tol).floor() as i64) };
+    let mut grid: HashMap<[i64; 3], Vec<usize>> = HashMap::with_capacity(nodes.len());
+    for (i, p) in nodes.iter().enumerate() {
+        grid.entry(cell(p)).or_default().push(i);
+    }
+    let mut pairs = Vec::new();
+    for (a, p) in nodes.iter().enumerate() {
+        let c = cell(p);
+        for d in 0..27i64 {
+            let key = [c[0] + d % 3 - 1, c[1] + (d / 3) % 3 - 1, c[2] + d / 9 - 1];
+            for &b in grid.get(&key).map_or(&[][..], |v| v.as_slice()) {
+                let d2 = (0..3).map(|k| (p[k] - nodes[b][k]).powi(2)).sum::<f64>();
+                if b > a && d2 <= tol * tol {
+                    pairs.push((a, b));
+                }
+            }
+        }
+    }
+    pairs.sort_unstable();
+    pairs
+}
+
 fn element_name(k: ElementKind) -> &'static str {
     match k {
         ElementKind::Bar2 => "bar2",
@@ -1383,5 +1534,20 @@ mod tests {
         assert_eq!(boundary_faces(ElementKind::Tet4, &t).len(), 20);
         let b = boundary_faces(ElementKind::Quad4PlaneStress, &e);
         assert_eq!(b.len(), 6);
+    }
+
+    #[test]
+    fn coincident_nodes_are_found_within_the_tolerance_only() {
+        let (mut n, _) = box_mesh([0.0; 3], [1.0, 1.0, 1.0], [10, 10, 10], false);
+        assert!(coincident_nodes(&n).is_empty());
+        let diag = 3f64.sqrt();
+        let mut twin = n[17];
+        twin[1] += 0.5e-9 * diag;
+        n.push(twin);
+        let mut apart = n[500];
+        apart[2] += 2e-9 * diag;
+        n.push(apart);
+        n.push(n[3]);
+        assert_eq!(coincident_nodes(&n), vec![(3, 1333), (17, 1331)]);
     }
 }

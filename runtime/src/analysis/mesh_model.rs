@@ -581,11 +581,13 @@ fn plan(l: &mut MeshLayout) {
 pub struct CriticalStep {
     /// `2 / ω_max` (s).
     pub step: f64,
-    /// The highest element frequency bound (rad/s).
+    /// The bound on the highest frequency (rad/s): the stiffest element's, raised by the
+    /// stiffest node's foundation springs.
     pub omega: f64,
     /// The mesh whose element sets it.
     pub mesh: String,
-    /// That element, its nodes and location.
+    /// That element, its nodes and location (and the node whose foundation springs raise
+    /// the bound, if any).
     pub place: String,
 }
 
@@ -620,11 +622,39 @@ pub fn critical_step(l: &MeshLayout) -> Option<CriticalStep> {
     }
     let (w, bi, e) = best?;
     let b = &l.blocks[bi];
+    let mut place = element_place(l, b, e);
+    // Foundation springs add their `k/m` at a node to the lumped system's highest
+    // eigenvalue at most: `ω_max² ≤ max_e ω_e² + max_n Σk_n/m_n` (the Rayleigh quotient
+    // of `M^{-1/2}(K_elements + K_foundation)M^{-1/2}` splits, and the foundation's part
+    // is diagonal up to its normals: each node's springs have norm at most Σk).
+    let mut springs: Vec<(u32, f64)> = l.foundation.iter().map(|f| (f.node, f.k)).collect();
+    springs.sort_unstable_by_key(|s| s.0);
+    let mut stiffest: Option<(u32, f64)> = None;
+    for run in springs.chunk_by(|a, b| a.0 == b.0) {
+        let n = run[0].0;
+        let k: f64 = run.iter().map(|s| s.1).sum();
+        let w2 = k / l.mass[n as usize];
+        if stiffest.is_none_or(|(_, best)| w2 > best) {
+            stiffest = Some((n, w2));
+        }
+    }
+    let mut omega = w;
+    if let Some((n, wf2)) = stiffest {
+        omega = (w * w + wf2).sqrt();
+        let p = l.x0[n as usize];
+        place = format!(
+            "{place}, with the foundation springs of node {n} at ({:.4}, {:.4}, {:.4}) m (√(k/m) = {:.4e} rad/s)",
+            p[0],
+            p[1],
+            p[2],
+            wf2.sqrt()
+        );
+    }
     Some(CriticalStep {
-        step: 2.0 / w,
-        omega: w,
+        step: 2.0 / omega,
+        omega,
         mesh: b.name.clone(),
-        place: element_place(l, b, e),
+        place,
     })
 }
 

@@ -48,10 +48,12 @@ pub struct Settings {
     pub halve_step: bool,
 }
 
-/// Whether a scene has energy sources (applied forces, drivers, prescribed velocities,
-/// contact, time dependence): then the watchdog does not check energy growth.
+/// Whether a scene has energy sources outside its energy balance (applied forces, drivers,
+/// prescribed velocities, contact, time dependence of the bodies' forces): then the
+/// watchdog does not check energy growth. The meshes' loads and prescribed displacements
+/// are not such sources: their work is in the meshes' balance.
 pub fn energy_sources(scene: &Scene) -> bool {
-    let e = crate::analysis::effects::Effects::of(scene);
+    let e = crate::analysis::effects::Effects::apart_from_mesh_conditions(scene);
     e.applied_forces || e.drivers || e.nonholonomic || e.contact || e.time_dependence
 }
 
