@@ -2,7 +2,10 @@
 
 use std::fmt;
 
-use mbdc_runtime::scene::{BodyRef, ElementKind, ForceKind, MethodSpec, ParamValue, Scene, Vec3};
+use mbdc_runtime::scene::{
+    BodyRef, ElementKind, ForceKind, HourglassControl, MeshFormulation, MeshIntegration,
+    MeshKinematics, MethodSpec, ParamValue, Scene, Vec3,
+};
 use serde::Serialize;
 
 use crate::kinematics;
@@ -41,6 +44,8 @@ pub struct PartSummary {
     pub elements: usize,
     /// Node sets (meshes) or attachments (beams).
     pub sets: usize,
+    /// The element formulation (meshes: quadrature, hourglass control, strain measure).
+    pub formulation: Option<String>,
 }
 
 /// What `mbdc check` reports about a valid scene.
@@ -72,6 +77,9 @@ pub struct CheckSummary {
     pub beams: Vec<PartSummary>,
     /// Meshes.
     pub meshes: Vec<PartSummary>,
+    /// The meshes' central-difference limit (s) and the element (and foundation node) that
+    /// sets it; `None` without meshes or when the meshes cannot be built.
+    pub mesh_critical_step: Option<(f64, String)>,
     /// Gravity.
     pub gravity: Option<Vec3>,
     /// Method with its options, as text.
@@ -196,6 +204,34 @@ fn element_text(k: ElementKind) -> &'static str {
     }
 }
 
+/// The formulation of a mesh's elements, as the language writes it.
+fn formulation_text(kind: ElementKind, f: &MeshFormulation) -> String {
+    let mut parts = Vec::new();
+    if mbdc_runtime::mesh_model::takes_integration(kind) {
+        parts.push(match f.integration {
+            MeshIntegration::Full => "full integration".to_string(),
+            MeshIntegration::Bbar => "bbar integration".to_string(),
+            MeshIntegration::Reduced { hourglass } => format!(
+                "reduced integration, hourglass {}",
+                match hourglass {
+                    HourglassControl::Viscous { coefficient } =>
+                        format!("viscous({})", short(coefficient)),
+                    HourglassControl::Stiffness { coefficient } =>
+                        format!("stiffness({})", short(coefficient)),
+                }
+            ),
+        });
+    }
+    parts.push(
+        match f.kinematics {
+            MeshKinematics::Small => "small strain",
+            MeshKinematics::Green => "green strain",
+        }
+        .to_string(),
+    );
+    parts.join(", ")
+}
+
 /// Summarises a scene (computes constraint residuals and the Jacobian rank at t = 0).
 pub fn summary(scene: &Scene) -> CheckSummary {
     let body_name = |b: BodyRef| match b {
@@ -280,6 +316,7 @@ pub fn summary(scene: &Scene) -> CheckSummary {
                 nodes: b.nodes.len(),
                 elements: b.nodes.len().saturating_sub(1),
                 sets: b.attachments.len(),
+                formulation: None,
             })
             .collect(),
         meshes: scene
@@ -291,8 +328,17 @@ pub fn summary(scene: &Scene) -> CheckSummary {
                 nodes: m.nodes.len(),
                 elements: m.elements.len(),
                 sets: m.node_sets.len(),
+                formulation: Some(formulation_text(m.kind, &m.formulation)),
             })
             .collect(),
+        mesh_critical_step: if scene.meshes.is_empty() {
+            None
+        } else {
+            mbdc_runtime::mesh_model::build(&scene.meshes)
+                .ok()
+                .and_then(|l| mbdc_runtime::mesh_model::critical_step(&l))
+                .map(|c| (c.step, format!("mesh '{}', {}", c.mesh, c.place)))
+        },
         gravity: scene.gravity,
         method: method_text(&scene.simulate.method),
         step: scene.simulate.step,
@@ -428,8 +474,23 @@ impl fmt::Display for CheckSummary {
         for m in &self.meshes {
             writeln!(
                 f,
-                "  mesh         {}: {}, {} nodes, {} elements, {} sets",
-                m.name, m.kind, m.nodes, m.elements, m.sets
+                "  mesh         {}: {}, {} nodes, {} elements, {} sets{}",
+                m.name,
+                m.kind,
+                m.nodes,
+                m.elements,
+                m.sets,
+                m.formulation
+                    .as_ref()
+                    .map_or(String::new(), |t| format!("; {t}"))
+            )?;
+        }
+        if let Some((limit, place)) = &self.mesh_critical_step {
+            writeln!(
+                f,
+                "  critical     step {:.4e} s (the step is {:.3} of it), set by {place}",
+                limit,
+                self.step / limit
             )?;
         }
         if let Some(g) = self.gravity {
@@ -474,5 +535,30 @@ impl fmt::Display for CheckSummary {
             writeln!(f, "  params       {}", list(&ps, 12))?;
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    /// A mesh's line names its formulation; the critical step is that of the stiffest
+    /// element: a 2 × 1 grid of 0.5 m quad4 squares in plane stress, whose bound is
+    /// computed by the runtime (`mesh_model::critical_step`), here against the step.
+    #[test]
+    fn a_mesh_scene_reports_its_formulation_and_critical_step() {
+        let src = "model m {\n  material alu { E 70 GPa; nu 0.33; rho 2700 kg/m^3 }\n  mesh p {\n    element quad4\n    thickness 1 cm\n    integration reduced\n    hourglass stiffness(0.05)\n    generate rect(origin: (0, 0) m, size: (1, 0.5) m, divisions: (2, 1))\n    material alu\n  }\n  simulate { duration 1 ms; step 1 us }\n}\n";
+        let loaded = crate::load_str("m.mbd", src, &[]);
+        let scene = loaded.scene.expect("a scene");
+        let s = super::summary(&scene);
+        let (limit, place) = s.mesh_critical_step.clone().expect("a limit");
+        let layout = mbdc_runtime::mesh_model::build(&scene.meshes).expect("a layout");
+        let c = mbdc_runtime::mesh_model::critical_step(&layout).expect("elements");
+        assert_eq!(limit, c.step);
+        assert!(place.starts_with("mesh 'p', element 0"), "{place}");
+        let text = s.to_string();
+        assert!(
+            text.contains("; reduced integration, hourglass stiffness(0.05), small strain"),
+            "{text}"
+        );
+        assert!(text.contains("  critical     step "), "{text}");
     }
 }
