@@ -670,7 +670,11 @@ fn check<S: System>(
             return Some(Failure {
                 time: st.t,
                 step,
-                location: format!("body '{}'", layout.body_names[who]),
+                // A scene of meshes alone has no body to name.
+                location: layout
+                    .body_names
+                    .get(who)
+                    .map_or_else(|| "the meshes".to_string(), |n| format!("body '{n}'")),
                 quantity: "relative energy growth".into(),
                 value: growth,
                 cause: "energy grows although the scene has no energy source: the integration is unstable (step above the stability limit, or stiff springs or fast spin for an explicit method)".into(),
