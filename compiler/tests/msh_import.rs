@@ -4,12 +4,16 @@ use std::path::Path;
 
 use mbdc_runtime::scene::MeshCondition;
 
+/// Loads `src` as a model file in the tests' data folder (where the .msh files are).
+fn load_in_data(src: &str) -> mbdc_compiler::Loaded {
+    let name = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/import_test.mbd");
+    mbdc_compiler::load_str(&name.to_string_lossy(), src, &[])
+}
+
 #[test]
 fn imports_quads_and_groups() {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data");
     let src = "model m {\n  material alu { E 70 GPa; nu 0.33; rho 2700 kg/m^3 }\n  mesh p {\n    element quad4\n    thickness 1 cm\n    import \"two_quads.msh\"\n    material alu\n    set left = group(\"left\")\n    set right = group(\"right\")\n    set all = group(\"plate\")\n    fix left\n    traction right, (1 MPa, 0)\n  }\n  simulate { duration 1 ms; step 1 us }\n}\n";
-    let name = dir.join("import_test.mbd");
-    let loaded = mbdc_compiler::load_str(&name.to_string_lossy(), src, &[]);
+    let loaded = load_in_data(src);
     assert!(!loaded.has_errors(), "{}", loaded.render_plain());
     let scene = loaded.scene.expect("scene");
     let m = &scene.meshes[0];
@@ -33,11 +37,11 @@ fn imports_quads_and_groups() {
 
     // A group that does not exist, and a kind the file does not have.
     let bad = src.replace("group(\"right\")", "group(\"rigth\")");
-    let l = mbdc_compiler::load_str(&name.to_string_lossy(), &bad, &[]);
+    let l = load_in_data(&bad);
     let d = l.errors().next().expect("an error");
     assert_eq!(d.help.as_deref(), Some("did you mean `right`?"));
     let bad = src.replace("element quad4", "element tri3");
-    let l = mbdc_compiler::load_str(&name.to_string_lossy(), &bad, &[]);
+    let l = load_in_data(&bad);
     let d = l.errors().next().expect("an error");
     assert!(d.message.contains("has no tri3 elements"), "{}", d.message);
     assert_eq!(d.help.as_deref(), Some("it has: line2 × 2, quad4 × 2"));
@@ -47,10 +51,8 @@ fn imports_quads_and_groups() {
 /// (a hole), a node no quad uses, and two nodes at one place (a crack between the quads).
 #[test]
 fn warns_about_left_out_elements_stray_and_coincident_nodes() {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data");
     let src = "model m {\n  material alu { E 70 GPa; nu 0.33; rho 2700 kg/m^3 }\n  mesh p {\n    element quad4\n    thickness 1 cm\n    import \"cracked_mixed.msh\"\n    material alu\n  }\n  simulate { duration 1 ms; step 1 us }\n}\n";
-    let name = dir.join("import_test.mbd");
-    let loaded = mbdc_compiler::load_str(&name.to_string_lossy(), src, &[]);
+    let loaded = load_in_data(src);
     assert!(!loaded.has_errors(), "{}", loaded.render_plain());
     let text = loaded.render_plain();
     let warnings: Vec<&str> = text.lines().filter(|l| l.starts_with("warning")).collect();
@@ -69,7 +71,7 @@ fn warns_about_left_out_elements_stray_and_coincident_nodes() {
     );
     // The clean file warns about nothing.
     let clean = src.replace("cracked_mixed.msh", "two_quads.msh");
-    let loaded = mbdc_compiler::load_str(&name.to_string_lossy(), &clean, &[]);
+    let loaded = load_in_data(&clean);
     assert!(
         !loaded.render_plain().contains("warning"),
         "{}",

@@ -1003,13 +1003,7 @@ impl<'a> Lowerer<'a> {
             .flat_map(|el| el.nodes.iter().copied())
             .collect();
         if tags.is_empty() {
-            let mut have: HashMap<u32, usize> = HashMap::new();
-            for el in &data.elements {
-                *have.entry(el.etype).or_default() += 1;
-            }
-            let mut have: Vec<_> = have.into_iter().collect();
-            have.sort();
-            let list = have
+            let list = type_counts(data.elements.iter())
                 .iter()
                 .map(|(t, n)| format!("{} × {n}", msh::type_name(*t)))
                 .collect::<Vec<_>>()
@@ -1106,17 +1100,12 @@ impl<'a> Lowerer<'a> {
         span: Span,
     ) {
         let dim = msh_dimension(want);
-        let mut other: Vec<(u32, usize)> = Vec::new();
-        for el in data.elements.iter().filter(|el| el.etype != want) {
-            if msh_dimension(el.etype) == dim {
-                match other.iter_mut().find(|(t, _)| *t == el.etype) {
-                    Some((_, n)) => *n += 1,
-                    None => other.push((el.etype, 1)),
-                }
-            }
-        }
+        let other = type_counts(
+            data.elements
+                .iter()
+                .filter(|el| el.etype != want && msh_dimension(el.etype) == dim),
+        );
         if !other.is_empty() {
-            other.sort_unstable();
             let list = other
                 .iter()
                 .map(|(t, n)| format!("{n} {}", msh::type_name(*t)))
@@ -1459,6 +1448,15 @@ impl<'a> Lowerer<'a> {
         }
         self.fvec3_of(v, e.span, sc, d, what)
     }
+}
+
+/// How many elements of each Gmsh type, by type.
+fn type_counts<'e>(elements: impl Iterator<Item = &'e msh::MshElement>) -> Vec<(u32, usize)> {
+    let mut have: std::collections::BTreeMap<u32, usize> = Default::default();
+    for el in elements {
+        *have.entry(el.etype).or_default() += 1;
+    }
+    have.into_iter().collect()
 }
 
 /// The dimension of a Gmsh element type (0 for points and types mbdc does not know).

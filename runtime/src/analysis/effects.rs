@@ -39,31 +39,6 @@ impl Effects {
     /// The effects `scene` uses.
     pub fn of(scene: &Scene) -> Effects {
         let fn_time = |f: &Fn1| !f.is_const();
-        let mut e = Effects::apart_from_mesh_conditions(scene);
-        for m in &scene.meshes {
-            for c in &m.conditions {
-                match c {
-                    MeshCondition::Displacement { value, .. } => {
-                        e.time_dependence |= value.iter().flatten().any(fn_time)
-                    }
-                    MeshCondition::NodalLoad { value, .. }
-                    | MeshCondition::Traction { value, .. } => {
-                        e.time_dependence |= value.iter().any(fn_time)
-                    }
-                    _ => {}
-                }
-            }
-        }
-        e
-    }
-
-    /// The effects of `scene` leaving out the time dependence of its meshes' conditions
-    /// (loads, tractions, prescribed displacements): the energy sources the run's energy
-    /// balance does not account for. The meshes' balance counts the work of their
-    /// conditions (the mesh integrator's `MeshEnergy`), so a scene whose
-    /// only sources are mesh conditions keeps the watchdog's energy-growth check.
-    pub fn apart_from_mesh_conditions(scene: &Scene) -> Effects {
-        let fn_time = |f: &Fn1| !f.is_const();
         let mut e = Effects {
             gravity: scene.gravity.is_some_and(|g| g.iter().any(|c| *c != 0.0)),
             beams: !scene.beams.is_empty(),
@@ -102,6 +77,20 @@ impl Effects {
             if j.kind.is_rheonomic() {
                 e.drivers = true;
                 e.time_dependence = true;
+            }
+        }
+        for m in &scene.meshes {
+            for c in &m.conditions {
+                match c {
+                    MeshCondition::Displacement { value, .. } => {
+                        e.time_dependence |= value.iter().flatten().any(fn_time)
+                    }
+                    MeshCondition::NodalLoad { value, .. }
+                    | MeshCondition::Traction { value, .. } => {
+                        e.time_dependence |= value.iter().any(fn_time)
+                    }
+                    _ => {}
+                }
             }
         }
         e.closed_loops = loop_count(scene) > 0;

@@ -54,8 +54,7 @@ pub struct Settings {
 /// loads, but the synchronized central difference books it half a step late (a load ramped
 /// from zero gives kinetic energy at the first step before its work shows in the
 /// displacement), so the balance's error relative to the energy in play is O(1) over the
-/// first steps of a loading: [`crate::analysis::effects::Effects::apart_from_mesh_conditions`]
-/// is what a check that allows for that start would use.
+/// first steps of a loading.
 pub fn energy_sources(scene: &Scene) -> bool {
     let e = crate::analysis::effects::Effects::of(scene);
     e.applied_forces || e.drivers || e.nonholonomic || e.contact || e.time_dependence
