@@ -665,6 +665,7 @@ mod tests {
                 e: 200e9,
                 nu: 0.3,
                 rho: 8000.0,
+                plastic: None,
             },
             thickness: 1.0,
             nodes,

@@ -1039,3 +1039,218 @@ fn min_jacobian_detects_inversion() {
 fn voigt_order_is_xx_yy_zz_yz_xz_xy() {
     assert_eq!(VOIGT, [(0, 0), (1, 1), (2, 2), (1, 2), (0, 2), (0, 1)]);
 }
+
+// ---------------------------------------------------------------- plasticity
+
+/// The plastic state of `n` integration points, fresh.
+struct Points {
+    strain: Vec<[f64; 6]>,
+    equivalent: Vec<f64>,
+}
+
+impl Points {
+    fn new(n: usize) -> Points {
+        Points {
+            strain: vec![[0.0; 6]; n],
+            equivalent: vec![0.0; n],
+        }
+    }
+    fn view(&mut self) -> PlasticPoints<'_> {
+        PlasticPoints {
+            strain: &mut self.strain,
+            equivalent: &mut self.equivalent,
+        }
+    }
+}
+
+fn eval_plastic(
+    kind: ElementKind,
+    o: &ElementOptions,
+    m: &Elastic,
+    p: &Plastic,
+    x0: &X,
+    u: &X,
+    pts: &mut Points,
+) -> (ElementResponse, PlasticResponse) {
+    let n = kind.nodes();
+    let mut out = ElementResponse::default();
+    let pr = respond_plastic(
+        kind,
+        o,
+        m,
+        p,
+        &x0[..n],
+        &u[..n],
+        &u[..n],
+        pts.view(),
+        &mut out,
+    );
+    (out, pr)
+}
+
+/// Reference: with a yield stress no state reaches, the elastoplastic kernels compute what
+/// the elastic ones compute — bitwise (the elastic strain is the strain minus an exact
+/// zero, and the plane-stress return forms the same products) — for every kind, variant
+/// and kinematics, and leave the state at zero.
+#[test]
+fn plastic_kernels_below_yield_are_the_elastic_kernels() {
+    let m = steel();
+    let p = Plastic {
+        yield_stress: 1e15,
+        hardening: 0.0,
+    };
+    for kind in ALL {
+        let x0 = geometry(kind);
+        let u = field(kind, &x0, |x| matvec(&A, x));
+        for integ in variants(kind) {
+            for kin in [Kinematics::SmallStrain, Kinematics::TotalLagrangian] {
+                let o = opts(kin, integ);
+                let mut pts = Points::new(integration_points(kind, &o));
+                let r = eval(kind, &o, &m, &x0, &u, &u);
+                let (rp, pr) = eval_plastic(kind, &o, &m, &p, &x0, &u, &mut pts);
+                let what = format!("{kind:?} {integ:?} {kin:?}");
+                assert_eq!(r, rp, "{what}");
+                assert_eq!(pr, PlasticResponse::default(), "{what}");
+                assert!(pts.equivalent.iter().all(|&a| a == 0.0), "{what}");
+            }
+        }
+    }
+}
+
+/// Reference: a homogeneous displacement gradient (strains ≈ 3–4× the yield strain) is
+/// reproduced exactly by every element, so every integration point sees the same strain
+/// and the element's stress and state are those of one return at that strain:
+/// [`plasticity::radial_return`] (3-D kinds, plane strain), the plane-stress return
+/// (plane-stress kinds) or the 1-D return of the axial strain (bar2); tolerance 1e-10
+/// relative. The volume means of the state equal the point state, the plastic work is
+/// `V ∫σ_y dε̄ᵖ`, and the strain energy is `V ½ σ : εᵉ`. Every kind and variant, both
+/// kinematics (total Lagrangian on the Green–Lagrange strain).
+#[test]
+fn plastic_kernels_under_a_homogeneous_strain_return_like_one_point() {
+    use super::plasticity::{plane_stress_return, radial_return, uniaxial_return};
+    let m = steel();
+    let p = Plastic {
+        yield_stress: 250e6,
+        hardening: 5e9,
+    };
+    for kind in ALL {
+        let x0 = geometry(kind);
+        let mut a = A;
+        a.iter_mut().flatten().for_each(|x| *x *= 4.0);
+        if kind.dim() == 2 {
+            for i in 0..3 {
+                a[2][i] = 0.0;
+                a[i][2] = 0.0;
+            }
+        }
+        let u = field(kind, &x0, |x| matvec(&a, x));
+        for integ in variants(kind) {
+            for kin in [Kinematics::SmallStrain, Kinematics::TotalLagrangian] {
+                let o = opts(kin, integ);
+                let what = format!("{kind:?} {integ:?} {kin:?}");
+                let e = super::material::strain(kin, &a);
+                let (mut ep, mut alpha) = ([0.0; 6], 0.0);
+                let want = match kind {
+                    ElementKind::Bar2 => {
+                        let d = [
+                            x0[1][0] - x0[0][0],
+                            x0[1][1] - x0[0][1],
+                            x0[1][2] - x0[0][2],
+                        ];
+                        let l = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+                        let n = [d[0] / l, d[1] / l, d[2] / l];
+                        let tn = matvec(&super::material::tensor(&e), &n);
+                        let axial = n[0] * tn[0] + n[1] * tn[1] + n[2] * tn[2];
+                        let s = uniaxial_return(m.e, &p, axial, &mut ep[0], &mut alpha);
+                        [s, 0.0, 0.0, 0.0, 0.0, 0.0]
+                    }
+                    ElementKind::Tri3PlaneStress | ElementKind::Quad4PlaneStress => {
+                        let ls = m.plane_stress().lambda;
+                        plane_stress_return(ls, m.mu, &p, &e, &mut ep, &mut alpha)
+                    }
+                    _ => radial_return(m.lambda, m.mu, &p, &e, &mut ep, &mut alpha),
+                };
+                // Well past yield (ε_y = 1.25e-3).
+                assert!(alpha > 5e-4, "{what}: not plastic enough ({alpha})");
+                let mut pts = Points::new(integration_points(kind, &o));
+                let (r, pr) = eval_plastic(kind, &o, &m, &p, &x0, &u, &mut pts);
+                assert_close6(&r.stress, &want, 1e-10, &what);
+                assert_close6(&pr.strain, &ep, 1e-10, &what);
+                assert!((pr.equivalent / alpha - 1.0).abs() < 1e-10, "{what}");
+                for (q, a_q) in pts.equivalent.iter().enumerate() {
+                    assert!((a_q / alpha - 1.0).abs() < 1e-10, "{what}: point {q}");
+                }
+                // The element volume the work implies (checked against the lumped masses
+                // below), and the elastic energy V ½ σ : εᵉ.
+                let vol = pr.work / p.work(0.0, alpha);
+                let mut ee = [0.0; 6];
+                for k in 0..6 {
+                    ee[k] = if kind == ElementKind::Bar2 {
+                        [e_axial(&x0, &e), 0.0, 0.0, 0.0, 0.0, 0.0][k] - ep[k]
+                    } else {
+                        e[k] - ep[k]
+                    };
+                }
+                let w = 0.5 * (want[0] * ee[0] + want[1] * ee[1] + want[2] * ee[2])
+                    + want[3] * ee[3]
+                    + want[4] * ee[4]
+                    + want[5] * ee[5];
+                let hg = r.hourglass_energy;
+                assert!(
+                    (r.strain_energy + hg - vol * w).abs() < 1e-9 * vol * w,
+                    "{what}: energy {} vs V·½σ:εᵉ {}",
+                    r.strain_energy,
+                    vol * w
+                );
+                // The element's volume, independently: ρV from the lumped masses.
+                let mass: f64 = lumped_masses(kind, &o, 1.0, &x0[..kind.nodes()])
+                    .iter()
+                    .sum();
+                assert!(
+                    (vol / mass - 1.0).abs() < 1e-10,
+                    "{what}: volume {vol} vs {mass}"
+                );
+            }
+        }
+    }
+}
+
+/// The axial Green/small strain of a bar under the homogeneous strain `e`.
+fn e_axial(x0: &X, e: &[f64; 6]) -> f64 {
+    let d = [
+        x0[1][0] - x0[0][0],
+        x0[1][1] - x0[0][1],
+        x0[1][2] - x0[0][2],
+    ];
+    let l = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+    let n = [d[0] / l, d[1] / l, d[2] / l];
+    let tn = matvec(&super::material::tensor(e), &n);
+    n[0] * tn[0] + n[1] * tn[1] + n[2] * tn[2]
+}
+
+/// Reference: plastic flow is isochoric and σ_zz = 0 in plane stress, so the thickness
+/// strain of a plane-stress element is `−λ/(λ+2μ)(εᵉ_xx + εᵉ_yy) + εᵖ_zz` with
+/// `εᵖ_zz = −(εᵖ_xx + εᵖ_yy)`: checked against the element's state to 1e-12.
+#[test]
+fn plane_stress_thickness_strain_includes_the_plastic_part() {
+    let m = steel();
+    let p = Plastic {
+        yield_stress: 250e6,
+        hardening: 0.0,
+    };
+    for kind in [ElementKind::Tri3PlaneStress, ElementKind::Quad4PlaneStress] {
+        let x0 = geometry(kind);
+        let u = field(kind, &x0, |x| {
+            [3e-3 * x[0], -1e-3 * x[1] + 2e-3 * x[0], 0.0]
+        });
+        let o = opts(Kinematics::SmallStrain, Integration::default());
+        let mut pts = Points::new(integration_points(kind, &o));
+        let (r, pr) = eval_plastic(kind, &o, &m, &p, &x0, &u, &mut pts);
+        assert!(pr.equivalent > 1e-3);
+        assert_eq!(r.stress[2], 0.0);
+        let c = m.lambda / (m.lambda + 2.0 * m.mu);
+        let want = -c * (r.strain[0] - pr.strain[0] + r.strain[1] - pr.strain[1]) + pr.strain[2];
+        assert!((r.strain[2] - want).abs() < 1e-12 * want.abs(), "{kind:?}");
+        assert!((pr.strain[2] + pr.strain[0] + pr.strain[1]).abs() < 1e-15);
+    }
+}
