@@ -152,8 +152,8 @@ pub struct ElementResponse {
     pub strain_energy: f64,
     /// Hourglass forces' stored energy (stiffness form, J).
     pub hourglass_energy: f64,
-    /// Power of the hourglass forces `Σ f_hg · v` (W): for the viscous form, the rate at
-    /// which hourglass control dissipates energy.
+    /// The power the hourglass control dissipates (W): `Σ f_hg · v` for the viscous form,
+    /// 0 for the stiffness form (conservative: its work goes into `hourglass_energy`).
     pub hourglass_power: f64,
     /// Smallest Jacobian determinant of the deformed element over its integration points
     /// (≤ 0: the element has inverted).

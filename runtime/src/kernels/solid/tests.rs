@@ -559,6 +559,11 @@ fn hourglass_modes_of_one_point_hex8() {
                 .sum();
             assert!(work > 0.0);
             assert!((r1.hourglass_energy - 0.5 * work).abs() < 1e-12 * work);
+            // Conservative: no dissipated power, whatever the velocity.
+            assert_eq!(
+                eval(ElementKind::Hex8, &stiff, &m, &x0, &u, &u).hourglass_power,
+                0.0
+            );
             // C_s = κ (λ+2μ) V (b·b)/3 with b·b = 24/16 on the unit cube; γ = h, q = 8·1e-4.
             let cs = 0.1 * (m.lambda + 2.0 * m.mu) * 1.5 / 3.0;
             assert!((r1.f[0][comp] - cs * 8.0 * 1e-4 * h[0]).abs() < 1e-9 * cs * 8e-4);
