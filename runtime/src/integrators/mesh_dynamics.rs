@@ -80,13 +80,33 @@ impl MeshEnergy {
 
 /// The plastic state of one block's integration points, element after element (empty for
 /// an elastic block).
-#[derive(Clone, Debug, Default, PartialEq)]
+#[derive(Debug, Default, PartialEq)]
 pub struct PlasticState {
     /// Plastic strain per point (Voigt xx yy zz yz xz xy, tensor shears; bars: the axial
     /// one in xx).
     pub strain: Vec<[f64; 6]>,
     /// Equivalent plastic strain `ε̄ᵖ` per point.
     pub equivalent: Vec<f64>,
+    /// Stress per point at the end of the last step (Voigt; bars: the axial one in xx), for
+    /// the trapezoidal plastic work of the next.
+    pub stress: Vec<[f64; 6]>,
+}
+
+impl Clone for PlasticState {
+    fn clone(&self) -> Self {
+        PlasticState {
+            strain: self.strain.clone(),
+            equivalent: self.equivalent.clone(),
+            stress: self.stress.clone(),
+        }
+    }
+    /// Field by field, reusing the buffers (the derived `clone_from` would allocate anew:
+    /// the state is copied every step).
+    fn clone_from(&mut self, source: &Self) {
+        self.strain.clone_from(&source.strain);
+        self.equivalent.clone_from(&source.equivalent);
+        self.stress.clone_from(&source.stress);
+    }
 }
 
 /// The state of the meshes at a step time.
@@ -204,13 +224,16 @@ impl MeshDynamics {
                 Some(_) => PlasticState {
                     strain: vec![[0.0; 6]; b.elements() * ev.points],
                     equivalent: vec![0.0; b.elements() * ev.points],
+                    stress: vec![[0.0; 6]; b.elements() * ev.points],
                 },
                 None => PlasticState::default(),
             })
             .collect();
         let fits = start.plastic.len() == fresh.len()
             && start.plastic.iter().zip(&fresh).all(|(a, b)| {
-                a.strain.len() == b.strain.len() && a.equivalent.len() == b.equivalent.len()
+                a.strain.len() == b.strain.len()
+                    && a.equivalent.len() == b.equivalent.len()
+                    && a.stress.len() == b.stress.len()
             });
         let any_plastic = evals.iter().any(|e| e.plastic.is_some());
         let plastic = if !any_plastic {
@@ -649,8 +672,7 @@ fn plastic_block(
                sn: &mut [f64; 6],
                sc: &mut ElementScalars,
                po: &mut PlasticResponse,
-               pstrain: &mut [[f64; 6]],
-               peq: &mut [f64]| {
+               points: PlasticPoints<'_>| {
         let (x0, ue, ve) = gather_element(l, b, e, u, v);
         let mut r = ElementResponse::default();
         *po = solid::respond_plastic(
@@ -661,10 +683,7 @@ fn plastic_block(
             &x0[..npe],
             &ue[..npe],
             &ve[..npe],
-            PlasticPoints {
-                strain: pstrain,
-                equivalent: peq,
-            },
+            points,
             &mut r,
         );
         fs.copy_from_slice(&r.f[..npe]);
@@ -677,6 +696,11 @@ fn plastic_block(
             min_jacobian: r.min_jacobian,
         };
     };
+    let PlasticState {
+        strain: ep_all,
+        equivalent: eq_all,
+        stress: s_all,
+    } = ps;
     if b.elements() >= PARALLEL_ELEMENTS {
         slots
             .par_chunks_mut(npe)
@@ -684,25 +708,43 @@ fn plastic_block(
             .zip(strain.par_iter_mut())
             .zip(scalars.par_iter_mut())
             .zip(pout.par_iter_mut())
-            .zip(ps.strain.par_chunks_mut(np))
-            .zip(ps.equivalent.par_chunks_mut(np))
+            .zip(
+                ep_all
+                    .par_chunks_mut(np)
+                    .zip(eq_all.par_chunks_mut(np))
+                    .zip(s_all.par_chunks_mut(np)),
+            )
             .enumerate()
             .with_min_len(256)
-            .for_each(|(e, ((((((fs, st), sn), sc), po), pst), peq))| {
-                one(e, fs, st, sn, sc, po, pst, peq)
+            .for_each(|(e, (((((fs, st), sn), sc), po), ((pst, peq), pss)))| {
+                let points = PlasticPoints {
+                    strain: pst,
+                    equivalent: peq,
+                    stress: pss,
+                };
+                one(e, fs, st, sn, sc, po, points)
             });
     } else {
-        for (e, ((((((fs, st), sn), sc), po), pst), peq)) in slots
+        for (e, (((((fs, st), sn), sc), po), ((pst, peq), pss))) in slots
             .chunks_mut(npe)
             .zip(stress.iter_mut())
             .zip(strain.iter_mut())
             .zip(scalars.iter_mut())
             .zip(pout.iter_mut())
-            .zip(ps.strain.chunks_mut(np))
-            .zip(ps.equivalent.chunks_mut(np))
+            .zip(
+                ep_all
+                    .chunks_mut(np)
+                    .zip(eq_all.chunks_mut(np))
+                    .zip(s_all.chunks_mut(np)),
+            )
             .enumerate()
         {
-            one(e, fs, st, sn, sc, po, pst, peq);
+            let points = PlasticPoints {
+                strain: pst,
+                equivalent: peq,
+                stress: pss,
+            };
+            one(e, fs, st, sn, sc, po, points);
         }
     }
 }

@@ -47,7 +47,8 @@ pub fn respond(
 /// Axial force, stress and strain of one elastoplastic bar: the 1-D return
 /// ([`uniaxial_return`]) on the axial strain (small strain) or on the Green–Lagrange
 /// strain with the second Piola–Kirchhoff stress (total Lagrangian). `points` holds the
-/// bar's one point: its axial plastic strain (in xx) and `∫|dεᵖ|`, updated.
+/// bar's one point: its axial plastic strain (in xx), `∫|dεᵖ|` and its last stress,
+/// updated; the work is `½ (σ_n + σ_{n+1}) Δεᵖ A L`.
 pub fn respond_plastic(
     opts: &ElementOptions,
     mat: &Elastic,
@@ -59,15 +60,18 @@ pub fn respond_plastic(
 ) -> PlasticResponse {
     let ep = &mut points.strain[0];
     let alpha = &mut points.equivalent[0];
-    let a0 = *alpha;
+    let s0 = &mut points.stress[0];
+    let (ep0, sigma0) = (ep[0], s0[0]);
     let volume = respond_with(opts, x0, u, out, |strain| {
         let s = uniaxial_return(mat.e, plastic, strain, &mut ep[0], alpha);
         (s, strain - ep[0])
     });
+    let sigma = out.stress[0];
+    s0[0] = sigma;
     PlasticResponse {
         strain: [ep[0], 0.0, 0.0, 0.0, 0.0, 0.0],
         equivalent: *alpha,
-        work: volume * plastic.work(a0, *alpha),
+        work: volume * 0.5 * (sigma0 + sigma) * (ep[0] - ep0),
     }
 }
 

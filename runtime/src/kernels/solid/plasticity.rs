@@ -24,12 +24,14 @@
 //!   `σ = σ_tr − E Δγ sign σ_tr`; here `ε̄ᵖ = ∫|dεᵖ|` and the tangent after yield is
 //!   `E H/(E + H)`.
 //!
-//! **Plastic work** of a return, per unit volume: `∫ σ_y dε̄ᵖ` over the step,
-//! `Δε̄ᵖ (σ_y0 + H (ε̄ᵖ_n + ε̄ᵖ_{n+1})/2)` ([`Plastic::work`]) — for a state on the yield
-//! surface `σ : ε̇ᵖ = σ_y ε̄̇ᵖ`, so this is `σ : Δεᵖ` integrated with the trapezoidal rule
-//! over the step, like the work of the external forces (the backward-Euler
-//! `σ_{n+1} : Δεᵖ = σ_y(ε̄ᵖ_{n+1}) Δε̄ᵖ` exceeds it by `½ H (Δε̄ᵖ)²`; both are equal for
-//! perfect plasticity).
+//! **Plastic work** of a step, per unit volume: `½ (σ_n + σ_{n+1}) : Δεᵖ`, the trapezoidal
+//! rule like the work of the external forces, with the point's stress at the end of the
+//! previous step kept in its state. With `σ = C εᵉ` this makes the discrete balance exact:
+//! `½ (σ_n + σ_{n+1}) : Δε = ΔU + ½ (σ_n + σ_{n+1}) : Δεᵖ` with `U = ½ σ : εᵉ` (C symmetric),
+//! so the internal work of a step is the change of elastic energy plus the plastic work.
+//! (The backward-Euler `σ_{n+1} : Δεᵖ = σ_y(ε̄ᵖ_{n+1}) Δε̄ᵖ`, or `∫ σ_y dε̄ᵖ`
+//! ([`Plastic::work`]), differ from it in steps where the stress was inside the yield
+//! surface or the flow turns: an error of the order of the step, visible in impacts.)
 //!
 //! **Total Lagrangian** (`strain green`): the same returns act on the Green–Lagrange strain
 //! and the second Piola–Kirchhoff stress, with `E = Eᵉ + Eᵖ` additive. This is exact under
@@ -62,8 +64,9 @@ impl Plastic {
         self.yield_stress + self.hardening * alpha
     }
 
-    /// The plastic work per unit volume from `ε̄ᵖ = a0` to `a1`: `∫ σ_y dε̄ᵖ`, exact for
-    /// linear hardening.
+    /// The plastic work per unit volume from `ε̄ᵖ = a0` to `a1` on the yield surface:
+    /// `∫ σ_y dε̄ᵖ` (`σ : ε̇ᵖ = σ_y ε̄̇ᵖ` there), exact for linear hardening; the closed form
+    /// of a monotone path.
     #[inline]
     pub fn work(&self, a0: f64, a1: f64) -> f64 {
         (a1 - a0) * (self.yield_stress + 0.5 * self.hardening * (a0 + a1))
@@ -224,6 +227,16 @@ pub struct PlasticPoints<'a> {
     pub strain: &'a mut [[f64; 6]],
     /// Equivalent plastic strain `ε̄ᵖ` per point.
     pub equivalent: &'a mut [f64],
+    /// Stress per point at the end of the last evaluation (Voigt; bars: the axial one in
+    /// xx), for the trapezoidal plastic work `½ (σ_n + σ_{n+1}) : Δεᵖ`.
+    pub stress: &'a mut [[f64; 6]],
+}
+
+/// `½ (a + b) : d` for Voigt stresses `a`, `b` and a tensor-shear Voigt strain `d`.
+#[inline]
+pub(super) fn trapezoid_work(a: &[f64; 6], b: &[f64; 6], d: &[f64; 6]) -> f64 {
+    0.5 * ((a[0] + b[0]) * d[0] + (a[1] + b[1]) * d[1] + (a[2] + b[2]) * d[2])
+        + ((a[3] + b[3]) * d[3] + (a[4] + b[4]) * d[4] + (a[5] + b[5]) * d[5])
 }
 
 /// What an elastoplastic element evaluation adds to [`super::ElementResponse`].
@@ -233,7 +246,7 @@ pub struct PlasticResponse {
     pub strain: [f64; 6],
     /// Volume-mean equivalent plastic strain.
     pub equivalent: f64,
-    /// Plastic work of this evaluation's returns (J): `Σ_q w_q ∫ σ_y dε̄ᵖ`.
+    /// Plastic work of this evaluation's returns (J): `Σ_q w_q ½ (σ_n + σ_{n+1}) : Δεᵖ`.
     pub work: f64,
 }
 
@@ -254,7 +267,7 @@ pub(super) struct PlasticLaw<'a> {
     pub sum_strain: [f64; 6],
     /// `Σ w ε̄ᵖ`.
     pub sum_equivalent: f64,
-    /// `Σ w ∫σ_y dε̄ᵖ`.
+    /// `Σ w ½ (σ_n + σ_{n+1}) : Δεᵖ`.
     pub work: f64,
 }
 
@@ -299,19 +312,23 @@ impl PointLaw for PlasticLaw<'_> {
     fn point(&mut self, q: usize, w: f64, e: &[f64; 6]) -> ([f64; 6], f64) {
         let ep = &mut self.points.strain[q];
         let alpha = &mut self.points.equivalent[q];
-        let a0 = *alpha;
+        let ep0 = *ep;
         let s = if self.plane_stress {
             plane_stress_return(self.lambda, self.mu, &self.plastic, e, ep, alpha)
         } else {
             radial_return(self.lambda, self.mu, &self.plastic, e, ep, alpha)
         };
         let mut ee = [0.0; 6];
+        let mut dep = [0.0; 6];
         for k in 0..6 {
             ee[k] = e[k] - ep[k];
+            dep[k] = ep[k] - ep0[k];
             self.sum_strain[k] += w * ep[k];
         }
         self.sum_equivalent += w * *alpha;
-        self.work += w * self.plastic.work(a0, *alpha);
+        let s0 = &mut self.points.stress[q];
+        self.work += w * trapezoid_work(s0, &s, &dep);
+        *s0 = s;
         (s, energy_density(&s, &ee))
     }
 }

@@ -1051,6 +1051,7 @@ fn voigt_order_is_xx_yy_zz_yz_xz_xy() {
 struct Points {
     strain: Vec<[f64; 6]>,
     equivalent: Vec<f64>,
+    stress: Vec<[f64; 6]>,
 }
 
 impl Points {
@@ -1058,12 +1059,14 @@ impl Points {
         Points {
             strain: vec![[0.0; 6]; n],
             equivalent: vec![0.0; n],
+            stress: vec![[0.0; 6]; n],
         }
     }
     fn view(&mut self) -> PlasticPoints<'_> {
         PlasticPoints {
             strain: &mut self.strain,
             equivalent: &mut self.equivalent,
+            stress: &mut self.stress,
         }
     }
 }
