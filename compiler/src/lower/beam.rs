@@ -248,7 +248,7 @@ impl<'a> Lowerer<'a> {
                 Diagnostic::error(codes::WRONG_KIND, form).primary(sc.file, item.span, ""),
             ));
         };
-        let inner = format!("the plastic properties of {what}");
+        let inner = format!("the `plastic` block of {what}");
         let pp = self.props(block, sc, &inner, PLASTIC_KEYS, &[]);
         let yield_stress = match pp.value("yield") {
             Some(x) => self.positive(x, sc, Dim::PRESSURE, "the yield stress"),

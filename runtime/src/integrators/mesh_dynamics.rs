@@ -27,7 +27,8 @@
 //! elastic strains), hourglass stored energy, foundation energy, the work `W` of the loads
 //! and of the prescribed displacements' reactions (trapezoidal rule over each step), the
 //! work `D` dissipated by viscous hourglass control, and the plastic work `D_p = Σ σ : Δεᵖ`
-//! (per integration point times its volume, `∫ σ_y dε̄ᵖ` over each step).
+//! (per integration point times its volume, `σ` the mean of its values at the ends of the
+//! step: the trapezoidal rule like `W`, which makes the elements' discrete balance exact).
 //! `K + U + U_hg + U_f − W + D + D_p` stays at its initial value up to the method's error;
 //! the run loop watches it like a rigid scene's energy.
 
