@@ -29,8 +29,8 @@
 //! previous step kept in its state. With `σ = C εᵉ` this makes the discrete balance exact:
 //! `½ (σ_n + σ_{n+1}) : Δε = ΔU + ½ (σ_n + σ_{n+1}) : Δεᵖ` with `U = ½ σ : εᵉ` (C symmetric),
 //! so the internal work of a step is the change of elastic energy plus the plastic work.
-//! (The backward-Euler `σ_{n+1} : Δεᵖ = σ_y(ε̄ᵖ_{n+1}) Δε̄ᵖ`, or `∫ σ_y dε̄ᵖ`
-//! ([`Plastic::work`]), differ from it in steps where the stress was inside the yield
+//! (The backward-Euler `σ_{n+1} : Δεᵖ = σ_y(ε̄ᵖ_{n+1}) Δε̄ᵖ`, or `∫ σ_y dε̄ᵖ`, differ
+//! from it in steps where the stress was inside the yield
 //! surface or the flow turns: an error of the order of the step, visible in impacts.)
 //!
 //! **Total Lagrangian** (`strain green`): the same returns act on the Green–Lagrange strain
@@ -62,14 +62,6 @@ impl Plastic {
     #[inline]
     pub fn yield_at(&self, alpha: f64) -> f64 {
         self.yield_stress + self.hardening * alpha
-    }
-
-    /// The plastic work per unit volume from `ε̄ᵖ = a0` to `a1` on the yield surface:
-    /// `∫ σ_y dε̄ᵖ` (`σ : ε̇ᵖ = σ_y ε̄̇ᵖ` there), exact for linear hardening; the closed form
-    /// of a monotone path.
-    #[inline]
-    pub fn work(&self, a0: f64, a1: f64) -> f64 {
-        (a1 - a0) * (self.yield_stress + 0.5 * self.hardening * (a0 + a1))
     }
 }
 

@@ -1130,9 +1130,10 @@ fn plastic_kernels_below_yield_are_the_elastic_kernels() {
 /// and the element's stress and state are those of one return at that strain:
 /// [`plasticity::radial_return`] (3-D kinds, plane strain), the plane-stress return
 /// (plane-stress kinds) or the 1-D return of the axial strain (bar2); tolerance 1e-10
-/// relative. The volume means of the state equal the point state, the plastic work is
-/// `V ∫σ_y dε̄ᵖ`, and the strain energy is `V ½ σ : εᵉ`. Every kind and variant, both
-/// kinematics (total Lagrangian on the Green–Lagrange strain).
+/// relative. The volume means of the state equal the point state, the plastic work of this
+/// first step is the trapezoidal `V ½ (0 + σ) : εᵖ`, the points keep σ, and the strain
+/// energy is `V ½ σ : εᵉ`. Every kind and variant, both kinematics (total Lagrangian on
+/// the Green–Lagrange strain).
 #[test]
 fn plastic_kernels_under_a_homogeneous_strain_return_like_one_point() {
     use super::plasticity::{plane_stress_return, radial_return, uniaxial_return};
@@ -1188,9 +1189,10 @@ fn plastic_kernels_under_a_homogeneous_strain_return_like_one_point() {
                 for (q, a_q) in pts.equivalent.iter().enumerate() {
                     assert!((a_q / alpha - 1.0).abs() < 1e-10, "{what}: point {q}");
                 }
-                // The element volume the work implies (checked against the lumped masses
-                // below), and the elastic energy V ½ σ : εᵉ.
-                let vol = pr.work / p.work(0.0, alpha);
+                // The element's volume: ρV from the lumped masses with ρ = 1 (bars: A L).
+                let vol: f64 = lumped_masses(kind, &o, 1.0, &x0[..kind.nodes()])
+                    .iter()
+                    .sum();
                 let mut ee = [0.0; 6];
                 for k in 0..6 {
                     ee[k] = if kind == ElementKind::Bar2 {
@@ -1199,10 +1201,12 @@ fn plastic_kernels_under_a_homogeneous_strain_return_like_one_point() {
                         e[k] - ep[k]
                     };
                 }
-                let w = 0.5 * (want[0] * ee[0] + want[1] * ee[1] + want[2] * ee[2])
-                    + want[3] * ee[3]
-                    + want[4] * ee[4]
-                    + want[5] * ee[5];
+                // ½ a : b with tensor shears.
+                let dot = |a: &[f64; 6], b: &[f64; 6]| {
+                    0.5 * (a[0] * b[0] + a[1] * b[1] + a[2] * b[2])
+                        + (a[3] * b[3] + a[4] * b[4] + a[5] * b[5])
+                };
+                let w = dot(&want, &ee);
                 let hg = r.hourglass_energy;
                 assert!(
                     (r.strain_energy + hg - vol * w).abs() < 1e-9 * vol * w,
@@ -1210,14 +1214,17 @@ fn plastic_kernels_under_a_homogeneous_strain_return_like_one_point() {
                     r.strain_energy,
                     vol * w
                 );
-                // The element's volume, independently: ρV from the lumped masses.
-                let mass: f64 = lumped_masses(kind, &o, 1.0, &x0[..kind.nodes()])
-                    .iter()
-                    .sum();
+                // One step from rest: the trapezoidal work V ½ (0 + σ) : εᵖ, and the points
+                // keep the stress for the next step.
+                let wp = vol * dot(&want, &ep);
                 assert!(
-                    (vol / mass - 1.0).abs() < 1e-10,
-                    "{what}: volume {vol} vs {mass}"
+                    (pr.work - wp).abs() < 1e-9 * wp,
+                    "{what}: plastic work {} vs V ½σ:εᵖ {wp}",
+                    pr.work
                 );
+                for s in &pts.stress {
+                    assert_close6(s, &want, 1e-10, &what);
+                }
             }
         }
     }
