@@ -36,7 +36,8 @@ pub struct JointSummary {
 pub struct PartSummary {
     /// Name.
     pub name: String,
-    /// Element kind (`beam`, `quad4`, ...).
+    /// Element kind (`beam`, `quad4`, ...; `, plastic` after a mesh's kind when its
+    /// material is plastic).
     pub kind: String,
     /// Nodes.
     pub nodes: usize,
@@ -324,7 +325,10 @@ pub fn summary(scene: &Scene) -> CheckSummary {
             .iter()
             .map(|m| PartSummary {
                 name: m.name.clone(),
-                kind: element_text(m.kind).into(),
+                kind: match m.material.plastic {
+                    Some(_) => format!("{}, plastic", element_text(m.kind)),
+                    None => element_text(m.kind).into(),
+                },
                 nodes: m.nodes.len(),
                 elements: m.elements.len(),
                 sets: m.node_sets.len(),

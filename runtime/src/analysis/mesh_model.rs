@@ -48,6 +48,14 @@ pub fn elastic(m: &Material) -> Elastic {
     }
 }
 
+/// The J2 plasticity constants of a material, for the kernels (`None`: elastic).
+pub fn plastic(m: &Material) -> Option<solid::Plastic> {
+    m.plastic.map(|p| solid::Plastic {
+        yield_stress: p.yield_stress,
+        hardening: p.hardening,
+    })
+}
+
 /// How the elements of a block are evaluated: the block's thickness and plane mode, and
 /// its [`MeshFormulation`] mapped to the kernels' [`solid::Integration`] and
 /// [`solid::Kinematics`].
@@ -170,6 +178,20 @@ pub fn build(meshes: &[Mesh]) -> Result<MeshLayout, MeshError> {
                 "Poisson's ratio must lie in (-1, 0.5), got {}",
                 mat.nu
             )));
+        }
+        if let Some(p) = &mat.plastic {
+            if !(p.yield_stress.is_finite() && p.yield_stress > 0.0) {
+                return Err(err(format!(
+                    "the plastic yield stress must be positive and finite, got {}",
+                    p.yield_stress
+                )));
+            }
+            if !(p.hardening.is_finite() && p.hardening >= 0.0) {
+                return Err(err(format!(
+                    "the plastic hardening modulus must be zero or positive and finite, got {}",
+                    p.hardening
+                )));
+            }
         }
         let thickness = if m.kind.dim() == 2 || m.kind == ElementKind::Bar2 {
             m.thickness
@@ -695,6 +717,7 @@ mod tests {
                 e: 200e9,
                 nu: 0.3,
                 rho: 8000.0,
+                plastic: None,
             },
             thickness: 1.0,
             nodes,

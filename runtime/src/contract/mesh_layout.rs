@@ -52,6 +52,10 @@ impl MeshLayout {
     pub fn elements(&self) -> usize {
         self.blocks.iter().map(|b| b.elements()).sum()
     }
+    /// Whether some mesh has a plastic material.
+    pub fn is_plastic(&self) -> bool {
+        self.blocks.iter().any(|b| b.material.plastic.is_some())
+    }
 }
 
 /// The elements of one mesh (one element type and material).

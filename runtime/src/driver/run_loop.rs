@@ -221,7 +221,13 @@ impl Probe {
 /// potential can stay near zero while all of these grow).
 fn mesh_in_play(st: &State) -> f64 {
     let e = &st.mesh.energy;
-    e.kinetic + e.strain + e.hourglass + e.foundation + e.external_work.abs() + e.dissipated
+    e.kinetic
+        + e.strain
+        + e.hourglass
+        + e.foundation
+        + e.external_work.abs()
+        + e.dissipated
+        + e.plastic
 }
 
 /// The energy bookkeeping of a run, updated after every step.
@@ -756,6 +762,8 @@ struct ToWriter<'a> {
     error: Option<crate::driver::output::OutputError>,
     /// Per beam element: whether it is its beam's first (the arc length restarts).
     first_element: Vec<bool>,
+    /// The meshes' energies at the last frame (for the summary).
+    mesh_energy: crate::integrators::MeshEnergy,
 }
 
 impl Observer for ToWriter<'_> {
@@ -796,14 +804,22 @@ impl Observer for ToWriter<'_> {
             out.mesh_v.copy_from_slice(&m.v);
             out.mesh_stress.copy_from_slice(&m.stress);
             out.mesh_strain.copy_from_slice(&m.strain);
+            if m.plastic_strain.len() == out.mesh_plastic_strain.len() {
+                out.mesh_plastic_strain.copy_from_slice(&m.plastic_strain);
+                out.mesh_equivalent_plastic_strain
+                    .copy_from_slice(&m.equivalent_plastic_strain);
+            }
         } else {
             // the initial frame: at rest, undeformed
             out.mesh_u.fill([0.0; 3]);
             out.mesh_v.fill([0.0; 3]);
             out.mesh_stress.fill([0.0; 6]);
             out.mesh_strain.fill([0.0; 6]);
+            out.mesh_plastic_strain.fill([0.0; 6]);
+            out.mesh_equivalent_plastic_strain.fill(0.0);
         }
         let e = &m.energy;
+        self.mesh_energy = *e;
         out.mesh_energy = [
             e.kinetic,
             e.strain,
@@ -811,6 +827,7 @@ impl Observer for ToWriter<'_> {
             e.foundation,
             e.external_work,
             e.dissipated,
+            e.plastic,
             e.kinetic + e.balance_potential(),
         ];
         if let Err(e) = self.writer.submit(out) {
@@ -848,6 +865,7 @@ pub fn run_to_dir<S: System>(
         inner: progress,
         error: None,
         first_element,
+        mesh_energy: Default::default(),
     };
     let t0 = std::time::Instant::now();
     let report = run(sys, cfg, &mut obs);
@@ -889,6 +907,25 @@ pub fn run_to_dir<S: System>(
             "max_violation_of_joint_length".into(),
             serde_json::Value::Number(v),
         );
+    }
+    if !sys.layout().meshes.is_empty() {
+        // The meshes' energy balance at the last frame, term by term (J).
+        let e = &obs.mesh_energy;
+        let terms: serde_json::Map<String, serde_json::Value> = [
+            ("kinetic", e.kinetic),
+            ("strain", e.strain),
+            ("hourglass", e.hourglass),
+            ("foundation", e.foundation),
+            ("external_work", e.external_work),
+            ("dissipated", e.dissipated),
+            ("plastic", e.plastic),
+        ]
+        .into_iter()
+        .filter_map(|(k, v)| Some((k.to_string(), serde_json::Number::from_f64(v)?.into())))
+        .collect();
+        summary
+            .extra
+            .insert("mesh_energy".into(), serde_json::Value::Object(terms));
     }
     let ToWriter { writer, error, .. } = obs;
     if let Some(e) = error {

@@ -25,7 +25,7 @@ pub(crate) mod testsys;
 pub mod trapezoid;
 
 use crate::contract::system::{Pose, System, Twist};
-pub use mesh_dynamics::{MeshEnergy, MeshState};
+pub use mesh_dynamics::{MeshEnergy, MeshState, PlasticState};
 
 /// The synchronized state at a step time.
 #[derive(Clone, Debug, Default)]
