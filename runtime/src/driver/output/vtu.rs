@@ -18,13 +18,14 @@ use crate::contract::scene::ElementKind;
 use crate::contract::system::Layout;
 
 /// Columns of `mesh_energy.csv` after `t`.
-pub const MESH_ENERGY_COLUMNS: [&str; 7] = [
+pub const MESH_ENERGY_COLUMNS: [&str; 8] = [
     "kinetic",
     "strain",
     "hourglass",
     "foundation",
     "external_work",
     "dissipated",
+    "tie_work",
     "balance",
 ];
 

@@ -1,0 +1,273 @@
+//! Meshes tied to bodies (`tie SET, BODY`): master–slave kinematic coupling of a node set
+//! to a rigid body, laid out once before a run (docs/methods.md, "Meshes tied to bodies").
+//!
+//! A tied node moves rigidly with its body: its offset from the body's mass centre is fixed
+//! in the body's axes as it is at t = 0. The mesh's net force on it acts on the body. Its
+//! inertia belongs to the body, exactly: [`apply`] makes each body that carries tied nodes
+//! one rigid body with their lumped masses,
+//!
+//! ```text
+//! m' = m + Σ mᵢ,    c = Σ mᵢ sᵢ / m'     (sᵢ: node offsets from the body's mass centre, body axes)
+//! J' = J + m(|c|²I − c cᵀ) + Σ mᵢ(|dᵢ|²I − dᵢdᵢᵀ),   dᵢ = sᵢ − c
+//! ```
+//!
+//! whose reference point is the mass centre of the body *with* its nodes, `c` from the
+//! body's own. Every integrator takes bodies with their reference point at the mass centre
+//! (block-diagonal `M = diag(mI, J)`), so moving the reference point is what makes the
+//! nodes' inertia exact — including the first-moment coupling `Σ mᵢ sᵢ` between the body's
+//! translation and rotation, which inertia augmented about the body's own mass centre
+//! would leave to an explicit (lagged) term. The composite scene has every body-frame point
+//! of that body (joints, forces, contacts, beam attachments) moved by `−c`, its initial
+//! position by `C₀c` and its initial velocity by `C₀(ω₀ × c)`. Nothing else changes: the
+//! interpreter and the generated code (built from the interpreter's plan) both simulate the
+//! composite scene, and every output is converted back to the body's own mass centre
+//! ([`crate::contract::mesh_layout::TiedBody::own_pose`]).
+//!
+//! In the mesh, a tied node is constrained in every component and has no mass (its mass is
+//! the body's): the constraint's reaction is then minus the mesh's net force on the node,
+//! which the integrator hands to the body.
+//!
+//! **Gravity.** The scene's gravity acts on bodies, not on mesh nodes (a mesh takes
+//! `body_force`); the composite body's weight `m'g` includes the tied nodes' masses, so
+//! each tied node gets the constant load `−mᵢ g` in the mesh, which the tie hands back to
+//! the body: its weight is then its own, at its own mass centre, exactly.
+
+use std::collections::HashMap;
+
+use nalgebra::{Matrix3, Vector3};
+
+use crate::analysis::mesh_model::MeshError;
+use crate::contract::math::{quat, rotation, vec3};
+use crate::contract::mesh_layout::{MeshLayout, MeshTie, TiedBody};
+use crate::contract::scene::{Attachment, BodyRef, ForceKind, MeshCondition, Scene};
+
+/// Lay out the ties of `scene` in `l` (built by [`crate::analysis::mesh_model::build`]
+/// from the same scene) and return the composite scene the system simulates (see the
+/// module doc), or `None` when nothing is tied.
+///
+/// # Errors
+/// A tie that refers to a body or set that does not exist, an empty set, a node tied
+/// twice, a tied node that is also fixed or displaced, a 2-D mesh tied under a gravity
+/// with a component out of its plane.
+pub fn apply(scene: &Scene, l: &mut MeshLayout) -> Result<Option<Scene>, MeshError> {
+    // The ties, in scene order, and every tied node once.
+    let mut tied_by: HashMap<u32, usize> = HashMap::new();
+    for (mi, m) in scene.meshes.iter().enumerate() {
+        let err = |reason: String| MeshError {
+            mesh: m.name.clone(),
+            reason,
+        };
+        let Some(block) = l.blocks.get(mi) else {
+            return Err(err("the mesh layout does not match the scene".into()));
+        };
+        let (first, plane) = (block.first_node, block.kind.dim() == 2);
+        for c in &m.conditions {
+            let MeshCondition::Tie { set, body } = *c else {
+                continue;
+            };
+            let s = m.node_sets.get(set).ok_or_else(|| {
+                err(format!(
+                    "a tie refers to node set {set}, but the mesh has {} sets",
+                    m.node_sets.len()
+                ))
+            })?;
+            let b = scene.bodies.get(body).ok_or_else(|| {
+                err(format!(
+                    "tie '{}' refers to body index {body}, but the scene has {} bodies",
+                    s.name,
+                    scene.bodies.len()
+                ))
+            })?;
+            if s.nodes.is_empty() {
+                return Err(err(format!("tie '{}': the set is empty", s.name)));
+            }
+            // A tied node moves with its body: no other displacement condition on it.
+            for other in &m.conditions {
+                let (os, what) = match other {
+                    MeshCondition::Fixed { set } => (*set, "fixed"),
+                    MeshCondition::Displacement { set, value }
+                        if value.iter().any(Option::is_some) =>
+                    {
+                        (*set, "displaced")
+                    }
+                    _ => continue,
+                };
+                let Some(o) = m.node_sets.get(os) else {
+                    continue;
+                };
+                if let Some(n) = s.nodes.iter().find(|n| o.nodes.binary_search(n).is_ok()) {
+                    return Err(err(format!(
+                        "node {n} is tied to body '{}' (set '{}') and {what} (set '{}'): a tied node moves with its body",
+                        b.name, s.name, o.name
+                    )));
+                }
+            }
+            if plane {
+                if let Some(g) = scene.gravity.filter(|g| g[2] != 0.0) {
+                    return Err(err(format!(
+                        "tie '{}': the 2-D mesh lies in the plane z = 0 and its tied body must move in it, but the gravity ({}, {}, {}) has a component along z",
+                        s.name, g[0], g[1], g[2]
+                    )));
+                }
+            }
+            let k = l.ties.len();
+            let mut nodes = Vec::with_capacity(s.nodes.len());
+            for &n in &s.nodes {
+                let g = (first + n) as u32;
+                if let Some(&prev) = tied_by.get(&g) {
+                    let p: &MeshTie = &l.ties[prev];
+                    return Err(err(format!(
+                        "node {n} is tied twice: by set '{}' to body '{}' and by set '{}' to body '{}'",
+                        p.set, scene.bodies[p.body].name, s.name, b.name
+                    )));
+                }
+                tied_by.insert(g, k);
+                nodes.push(g);
+            }
+            l.ties.push(MeshTie {
+                mesh: m.name.clone(),
+                set: s.name.clone(),
+                body,
+                mass: nodes.iter().map(|&g| l.mass[g as usize]).collect(),
+                offsets: Vec::new(),
+                nodes,
+                plane,
+            });
+        }
+    }
+    if l.ties.is_empty() {
+        return Ok(None);
+    }
+    // The composite bodies.
+    let mut out = scene_without_meshes(scene);
+    let mut bodies: Vec<usize> = l.ties.iter().map(|t| t.body).collect();
+    bodies.sort_unstable();
+    bodies.dedup();
+    for &bi in &bodies {
+        let b = &scene.bodies[bi];
+        let q = quat(b.orientation);
+        let c0 = rotation(&(q / q.norm()));
+        let r0 = vec3(&b.position);
+        let offsets = |t: &MeshTie| -> Vec<Vector3<f64>> {
+            t.nodes
+                .iter()
+                .map(|&g| c0.transpose() * (vec3(&l.x0[g as usize]) - r0))
+                .collect()
+        };
+        let (mut mt, mut first_moment) = (0.0, Vector3::zeros());
+        for t in l.ties.iter().filter(|t| t.body == bi) {
+            for (s, m) in offsets(t).iter().zip(&t.mass) {
+                mt += m;
+                first_moment += s * *m;
+            }
+        }
+        let total = b.mass + mt;
+        let c = first_moment / total;
+        let point = |m: f64, d: &Vector3<f64>| {
+            m * (Matrix3::identity() * d.norm_squared() - d * d.transpose())
+        };
+        let mut j = Matrix3::from_fn(|r, k| b.inertia[r][k]) + point(b.mass, &c);
+        for t in l.ties.iter_mut().filter(|t| t.body == bi) {
+            let ds: Vec<Vector3<f64>> = offsets(t).iter().map(|s| s - c).collect();
+            for (d, m) in ds.iter().zip(&t.mass) {
+                j += point(*m, d);
+            }
+            t.offsets = ds.iter().map(|d| [d.x, d.y, d.z]).collect();
+        }
+        // symmetric to the last bit, as the interpreter checks
+        let j = (j + j.transpose()) * 0.5;
+        let w0 = vec3(&b.angular_velocity);
+        let ob = &mut out.bodies[bi];
+        ob.mass = total;
+        ob.inertia = [
+            [j[(0, 0)], j[(0, 1)], j[(0, 2)]],
+            [j[(1, 0)], j[(1, 1)], j[(1, 2)]],
+            [j[(2, 0)], j[(2, 1)], j[(2, 2)]],
+        ];
+        let r = r0 + c0 * c;
+        let v = vec3(&b.velocity) + c0 * w0.cross(&c);
+        ob.position = [r.x, r.y, r.z];
+        ob.velocity = [v.x, v.y, v.z];
+        l.tied_bodies.push(TiedBody {
+            body: bi,
+            shift: [c.x, c.y, c.z],
+            own_mass: b.mass,
+            tied_mass: mt,
+        });
+    }
+    // Every body-frame point of a composite body, from its new reference point.
+    let shift: HashMap<usize, Vector3<f64>> = l
+        .tied_bodies
+        .iter()
+        .map(|t| (t.body, Vector3::from(t.shift)))
+        .collect();
+    let mv = |a: &mut Attachment| {
+        if let BodyRef::Body(i) = a.body {
+            if let Some(c) = shift.get(&i) {
+                a.point = [a.point[0] - c.x, a.point[1] - c.y, a.point[2] - c.z];
+            }
+        }
+    };
+    for j in &mut out.joints {
+        mv(&mut j.a);
+        mv(&mut j.b);
+    }
+    for f in &mut out.forces {
+        match &mut f.kind {
+            ForceKind::Point { at, .. } => mv(at),
+            ForceKind::Spring { a, b, .. } => {
+                mv(a);
+                mv(b);
+            }
+            ForceKind::Torque { .. } | ForceKind::RotationalSpring { .. } => {}
+        }
+    }
+    for c in &mut out.contacts {
+        mv(&mut c.a.0);
+        mv(&mut c.b.0);
+    }
+    for b in &mut out.beams {
+        for a in &mut b.attachments {
+            mv(&mut a.to);
+        }
+    }
+    // The tied nodes: no mass in the mesh, constrained, and their weight counted once.
+    let g = scene
+        .gravity
+        .map(|g| vec3(&g))
+        .filter(|g| *g != Vector3::zeros());
+    if g.is_some() && l.body_force.is_empty() {
+        l.body_force = vec![[0.0; 3]; l.x0.len()];
+    }
+    for t in &l.ties {
+        for (&n, &m) in t.nodes.iter().zip(&t.mass) {
+            let n = n as usize;
+            l.mass[n] = 0.0;
+            l.constrained[n] = [true; 3];
+            if let Some(g) = g {
+                for k in 0..3 {
+                    l.body_force[n][k] -= m * g[k];
+                }
+            }
+        }
+    }
+    Ok(Some(out))
+}
+
+/// A copy of `scene` without its meshes (they can be large, and the system's layout has
+/// them already).
+fn scene_without_meshes(scene: &Scene) -> Scene {
+    Scene {
+        name: scene.name.clone(),
+        gravity: scene.gravity,
+        bodies: scene.bodies.clone(),
+        joints: scene.joints.clone(),
+        forces: scene.forces.clone(),
+        beams: scene.beams.clone(),
+        meshes: Vec::new(),
+        contacts: scene.contacts.clone(),
+        simulate: scene.simulate.clone(),
+        reference: scene.reference.clone(),
+        params: scene.params.clone(),
+    }
+}
