@@ -446,7 +446,8 @@ impl<'a> Lowerer<'a> {
             }
         }
         let _ = body_force_seen;
-        if ok {
+        {
+            // the conditions that lowered, whatever the others did
             let ties = Ties {
                 what: &what,
                 conditions: &conditions,
@@ -454,7 +455,7 @@ impl<'a> Lowerer<'a> {
                 sets: &sets,
                 nodes: &nodes,
             };
-            ok = self.check_ties(&ties, sc, formulation.kinematics);
+            ok &= self.check_ties(&ties, sc, formulation.kinematics);
         }
         if !ok {
             return Err(Reported);
@@ -1418,10 +1419,15 @@ impl<'a> Lowerer<'a> {
                         "a tied node moves with its body: take it out of one of the two sets",
                     )
                 };
+                let (here, there) = if what == "tied" {
+                    ("tied again here".to_string(), "first tied here".to_string())
+                } else {
+                    ("tied here".to_string(), format!("{what} here"))
+                };
                 self.report(
                     Diagnostic::error(codes::MESH, message)
-                        .primary(sc.file, t.spans[i], "tied here")
-                        .secondary(sc.file, t.spans[j], format!("{what} here"))
+                        .primary(sc.file, t.spans[i], here)
+                        .secondary(sc.file, t.spans[j], there)
                         .help(help),
                 );
                 ok = false;

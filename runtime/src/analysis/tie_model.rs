@@ -271,3 +271,168 @@ fn scene_without_meshes(scene: &Scene) -> Scene {
         params: scene.params.clone(),
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::analysis::mesh_model::build;
+    use crate::contract::scene::{
+        Body, ElementKind, Joint, JointKind, Material, Mesh, MeshFormulation, NodeSet, Origin,
+        Simulate,
+    };
+
+    /// A bar2 mesh of 2 elements along x from (1, 0, 0) to (3, 0, 0) (lumped masses
+    /// ρA·(0.5, 1, 0.5) = 1, 2, 1 kg with ρA = 2 kg/m), node 0 tied to a body of 2 kg at
+    /// the origin turned by 90° about z, which a spherical joint holds at (0, 1, 0).
+    fn scene(conditions: Vec<MeshCondition>) -> Scene {
+        let half = std::f64::consts::FRAC_1_SQRT_2;
+        Scene {
+            name: "t".into(),
+            gravity: Some([0.0, 0.0, -10.0]),
+            bodies: vec![Body {
+                name: "hub".into(),
+                mass: 2.0,
+                inertia: [[1.0, 0.0, 0.0], [0.0, 2.0, 0.0], [0.0, 0.0, 3.0]],
+                position: [0.0, 0.0, 0.0],
+                orientation: [half, 0.0, 0.0, half],
+                velocity: [0.0, 0.0, 0.0],
+                angular_velocity: [0.0, 0.0, 1.0],
+                origin: Origin::default(),
+            }],
+            joints: vec![Joint {
+                name: "pin".into(),
+                kind: JointKind::Spherical,
+                a: Attachment {
+                    body: BodyRef::Ground,
+                    point: [0.0, 1.0, 0.0],
+                    frame: [1.0, 0.0, 0.0, 0.0],
+                },
+                b: Attachment {
+                    body: BodyRef::Body(0),
+                    point: [1.0, 0.0, 0.0],
+                    frame: [1.0, 0.0, 0.0, 0.0],
+                },
+                origin: Origin::default(),
+            }],
+            forces: vec![],
+            beams: vec![],
+            meshes: vec![Mesh {
+                name: "bar".into(),
+                kind: ElementKind::Bar2,
+                material: Material {
+                    e: 1e9,
+                    nu: 0.3,
+                    rho: 2000.0,
+                },
+                thickness: 1e-3,
+                nodes: vec![[1.0, 0.0, 0.0], [2.0, 0.0, 0.0], [3.0, 0.0, 0.0]],
+                elements: vec![vec![0, 1], vec![1, 2]],
+                node_sets: vec![
+                    NodeSet {
+                        name: "root".into(),
+                        nodes: vec![0],
+                        faces: vec![],
+                    },
+                    NodeSet {
+                        name: "all".into(),
+                        nodes: vec![0, 1, 2],
+                        faces: vec![],
+                    },
+                ],
+                conditions,
+                formulation: MeshFormulation::default(),
+                origin: Origin::default(),
+            }],
+            contacts: vec![],
+            simulate: Simulate::default(),
+            reference: None,
+            params: vec![],
+        }
+    }
+
+    fn apply_to(s: &Scene) -> Result<(Option<Scene>, MeshLayout), MeshError> {
+        let mut l = build(&s.meshes).expect("a valid mesh");
+        apply(s, &mut l).map(|c| (c, l))
+    }
+
+    /// The composite of the body (2 kg, J = diag(1, 2, 3) about its centre) and node 0
+    /// (1 kg at world (1, 0, 0): body axes (0, −1, 0), the body turned by 90° about z):
+    /// 3 kg with its centre c = (0, −1/3, 0) in body axes (world (1/3, 0, 0)); inertia about
+    /// it `J + 2(|c|²I − ccᵀ) + 1(|d|²I − ddᵀ)`, d = (0, −2/3, 0): diag(1 + 2/9 + 4/9, 2,
+    /// 3 + 2/9 + 4/9). The joint's body point moves by −c, the initial velocity by
+    /// C₀(ω₀ × c) = (0, 1/3, 0); the node has no mass in the mesh, is constrained, and
+    /// carries −m g = (0, 0, 10) N. Without ties nothing changes.
+    #[test]
+    fn a_tied_node_becomes_part_of_its_body() {
+        let s = scene(vec![MeshCondition::Tie { set: 0, body: 0 }]);
+        let (c, l) = apply_to(&s).expect("valid");
+        let c = c.expect("a composite");
+        let b = &c.bodies[0];
+        let close = |a: f64, b: f64| (a - b).abs() < 1e-14;
+        assert!(close(b.mass, 3.0));
+        let j = b.inertia;
+        assert!(close(j[0][0], 1.0 + 6.0 / 9.0) && close(j[1][1], 2.0));
+        assert!(close(j[2][2], 3.0 + 6.0 / 9.0));
+        assert!(j[0][1].abs() < 1e-15 && j[0][2].abs() < 1e-15 && j[1][2].abs() < 1e-15);
+        assert!(close(b.position[0], 1.0 / 3.0) && b.position[1].abs() < 1e-15);
+        assert!(b.velocity[0].abs() < 1e-15 && close(b.velocity[1], 1.0 / 3.0));
+        let p = c.joints[0].b.point;
+        assert!(close(p[0], 1.0) && close(p[1], 1.0 / 3.0));
+        assert!(c.meshes.is_empty());
+        let t = &l.ties[0];
+        assert_eq!(
+            (t.body, t.nodes.clone(), t.mass.clone()),
+            (0, vec![0], vec![1.0])
+        );
+        assert!(close(t.offsets[0][1], -2.0 / 3.0) && t.offsets[0][0].abs() < 1e-15);
+        let tb = l.tied_bodies[0];
+        assert!(close(tb.shift[1], -1.0 / 3.0) && close(tb.tied_mass, 1.0));
+        assert_eq!((l.mass[0], l.mass[1]), (0.0, 2.0));
+        assert_eq!(l.constrained[0], [true; 3]);
+        assert_eq!(l.body_force[0], [0.0, 0.0, 10.0]);
+        assert_eq!(l.body_force[1], [0.0; 3]);
+        // the own-centre conversion undoes the shift
+        let pose = crate::contract::system::Pose::new(
+            crate::contract::math::vec3(&b.position),
+            quat(b.orientation),
+        );
+        assert!(tb.own_pose(&pose).r.norm() < 1e-15);
+        let tw = crate::contract::system::Twist {
+            v: vec3(&b.velocity),
+            w: vec3(&b.angular_velocity),
+        };
+        assert!(tb.own_twist(&pose, &tw).v.norm() < 1e-15);
+        assert_eq!(apply_to(&scene(vec![])).expect("valid").0, None);
+    }
+
+    /// What the compiler reports with spans is refused here too (scenes from JSON): a tie to
+    /// a body that does not exist, a tied node also fixed or displaced, a node tied twice.
+    #[test]
+    fn inconsistent_ties_are_refused() {
+        let cases = [
+            (
+                vec![MeshCondition::Tie { set: 0, body: 3 }],
+                "refers to body index 3",
+            ),
+            (
+                vec![
+                    MeshCondition::Fixed { set: 1 },
+                    MeshCondition::Tie { set: 0, body: 0 },
+                ],
+                "node 0 is tied to body 'hub' (set 'root') and fixed (set 'all')",
+            ),
+            (
+                vec![
+                    MeshCondition::Tie { set: 0, body: 0 },
+                    MeshCondition::Tie { set: 1, body: 0 },
+                ],
+                "node 0 is tied twice",
+            ),
+        ];
+        for (conditions, expected) in cases {
+            let err = apply_to(&scene(conditions)).expect_err("refused");
+            assert!(err.reason.contains(expected), "{err}");
+            assert_eq!(err.mesh, "bar");
+        }
+    }
+}
