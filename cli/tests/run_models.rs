@@ -185,7 +185,14 @@ fn a_failing_run_reports_and_keeps_its_frames() {
 /// which counts the work of the loads) stays below 1e-3, the bound for 10⁴ steps.
 #[test]
 fn every_mesh_model_runs_and_writes_its_series() {
-    for model in ["plate", "hex_bar", "plate_hole", "bracket", "block_impact"] {
+    for model in [
+        "plate",
+        "hex_bar",
+        "plate_hole",
+        "bracket",
+        "block_impact",
+        "mesh_on_pendulum",
+    ] {
         let dir = out_dir(model);
         let out = command()
             .args(["run", "--interp", "-o"])
