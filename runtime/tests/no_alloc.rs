@@ -491,7 +491,10 @@ fn tied_mesh_steps_do_not_allocate() {
             }
         });
         assert_eq!(count, 0, "allocations in tied mesh steps ({name})");
-        assert!(st.mesh.energy.strain > 0.0, "{name}: its weight bends the block");
+        assert!(
+            st.mesh.energy.strain > 0.0,
+            "{name}: its weight bends the block"
+        );
         // the system's hub is the hub with its tied nodes, its reference point pulled
         // towards them
         assert!(st.pose[0].r.x > -0.09, "{name}: {:?}", st.pose[0].r);

@@ -21,7 +21,7 @@
 //! position by `C₀c` and its initial velocity by `C₀(ω₀ × c)`. Nothing else changes: the
 //! interpreter and the generated code (built from the interpreter's plan) both simulate the
 //! composite scene, and every output is converted back to the body's own mass centre
-//! ([`crate::contract::mesh_layout::TiedBody::own_pose`]).
+//! ([`own_centre`]).
 //!
 //! In the mesh, a tied node is constrained in every component and has no mass (its mass is
 //! the body's): the constraint's reaction is then minus the mesh's net force on the node,
@@ -40,6 +40,7 @@ use crate::analysis::mesh_model::MeshError;
 use crate::contract::math::{quat, rotation, vec3};
 use crate::contract::mesh_layout::{MeshLayout, MeshTie, TiedBody};
 use crate::contract::scene::{Attachment, BodyRef, ForceKind, MeshCondition, Scene};
+use crate::contract::system::{Pose, Twist};
 
 /// Lay out the ties of `scene` in `l` (built by [`crate::analysis::mesh_model::build`]
 /// from the same scene) and return the composite scene the system simulates (see the
@@ -254,6 +255,22 @@ pub fn apply(scene: &Scene, l: &mut MeshLayout) -> Result<Option<Scene>, MeshErr
     Ok(Some(out))
 }
 
+/// The pose and twist of a tied body's own mass centre from the system's pose `p` and
+/// twist `t` of the body (at the mass centre of body and tied nodes): `r − C·shift`,
+/// `v − C(ω × shift)`; the orientation and ω (body axes) are the same.
+pub fn own_centre(tb: &TiedBody, p: &Pose, t: &Twist) -> (Pose, Twist) {
+    let c = Vector3::from(tb.shift);
+    let mut o = *p;
+    o.r = p.r - p.c * c;
+    (
+        o,
+        Twist {
+            v: t.v - p.c * t.w.cross(&c),
+            w: t.w,
+        },
+    )
+}
+
 /// A copy of `scene` without its meshes (they can be large, and the system's layout has
 /// them already).
 fn scene_without_meshes(scene: &Scene) -> Scene {
@@ -392,16 +409,13 @@ mod tests {
         assert_eq!(l.body_force[0], [0.0, 0.0, 10.0]);
         assert_eq!(l.body_force[1], [0.0; 3]);
         // the own-centre conversion undoes the shift
-        let pose = crate::contract::system::Pose::new(
-            crate::contract::math::vec3(&b.position),
-            quat(b.orientation),
-        );
-        assert!(tb.own_pose(&pose).r.norm() < 1e-15);
-        let tw = crate::contract::system::Twist {
+        let pose = Pose::new(vec3(&b.position), quat(b.orientation));
+        let tw = Twist {
             v: vec3(&b.velocity),
             w: vec3(&b.angular_velocity),
         };
-        assert!(tb.own_twist(&pose, &tw).v.norm() < 1e-15);
+        let (op, ot) = own_centre(&tb, &pose, &tw);
+        assert!(op.r.norm() < 1e-15 && ot.v.norm() < 1e-15);
         assert_eq!(apply_to(&scene(vec![])).expect("valid").0, None);
     }
 

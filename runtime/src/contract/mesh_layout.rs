@@ -4,10 +4,7 @@
 //! over nodes. Built once from a scene by [`crate::analysis::mesh_model`]; the topological
 //! plan (which element slots each node sums, notes D §5: fixed in time) is precomputed.
 
-use nalgebra::Vector3;
-
 use super::scene::{ElementKind, Fn1, Material, MeshFormulation};
-use super::system::{Pose, Twist};
 
 /// The meshes of a system (empty for a scene without meshes).
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -156,7 +153,8 @@ pub struct MeshTie {
 
 /// A body that carries tied nodes. The system integrates it as one rigid body with the
 /// nodes' masses (its mass, inertia and reference point are those of the body with its
-/// tied nodes); its own mass centre is `shift` away from that reference point.
+/// tied nodes); its own mass centre is `shift` away from that reference point
+/// ([`crate::analysis::tie_model::own_centre`] converts a state back to it).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct TiedBody {
     /// The body's index in the layout.
@@ -168,23 +166,4 @@ pub struct TiedBody {
     pub own_mass: f64,
     /// The tied nodes' mass it carries, kg.
     pub tied_mass: f64,
-}
-
-impl TiedBody {
-    /// The body's own mass-centre pose from the system's pose of the body (same
-    /// orientation, `r − C·shift`).
-    pub fn own_pose(&self, p: &Pose) -> Pose {
-        let mut o = *p;
-        o.r = p.r - p.c * Vector3::from(self.shift);
-        o
-    }
-
-    /// The velocity of the body's own mass centre from the system's pose and twist
-    /// (`v − C(ω × shift)`, ω in body axes; ω unchanged).
-    pub fn own_twist(&self, p: &Pose, t: &Twist) -> Twist {
-        Twist {
-            v: t.v - p.c * t.w.cross(&Vector3::from(self.shift)),
-            w: t.w,
-        }
-    }
 }

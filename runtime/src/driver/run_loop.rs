@@ -581,9 +581,8 @@ fn own_centres<'s>(o: &'s mut State, layout: &Layout, st: &'s State) -> &'s Stat
     o.mesh.strain.clone_from(&st.mesh.strain);
     o.mesh.energy = st.mesh.energy;
     for tb in tied {
-        let (p, t) = (&st.pose[tb.body], &st.twist[tb.body]);
-        o.pose[tb.body] = tb.own_pose(p);
-        o.twist[tb.body] = tb.own_twist(p, t);
+        (o.pose[tb.body], o.twist[tb.body]) =
+            crate::analysis::tie_model::own_centre(tb, &st.pose[tb.body], &st.twist[tb.body]);
     }
     o
 }

@@ -54,10 +54,11 @@ pub struct State {
 
 impl State {
     /// The energy of the flexible parts beside the bodies' kinetic and potential energy
-    /// (J): the beams' strain energy, and the meshes' kinetic energy and their
-    /// [`MeshEnergy::balance_potential`] (strain, hourglass and foundation energy, less the
-    /// work of loads and prescribed displacements, plus what hourglass control dissipated),
-    /// so that the total stays constant in a run.
+    /// (J): the beams' strain energy, and the meshes' [`MeshEnergy::balance_potential`]
+    /// (strain, hourglass and foundation energy, less the work of loads and prescribed
+    /// displacements, plus what hourglass control dissipated; not the work of ties, which
+    /// the bodies' energy already counts), so that with the kinetic energies the total
+    /// stays constant in a run.
     pub fn strain_energy(&self) -> f64 {
         beam_forces::total_strain_energy(&self.beams) + self.mesh.energy.balance_potential()
     }
