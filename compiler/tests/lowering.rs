@@ -490,6 +490,57 @@ fn meshes_and_sets() {
     assert_eq!(h.node_sets[0].faces.len(), 8);
 }
 
+/// `tie SET, BODY` lowers to a tie of the set to the body's index; with small strain it
+/// warns (the body's rotations strain the elements), naming the mesh and the body; with
+/// `strain green` it does not.
+#[test]
+fn ties_name_their_body_and_warn_with_small_strain() {
+    let src = |strain: &str| {
+        model(&format!(
+            "material alu {{ E 70 GPa; nu 0.33; rho 2700 kg/m^3 }}\n body a {{ mass 1 kg; inertia diag(1, 1, 1) g*m^2 }}\n body b {{ mass 1 kg; inertia diag(1, 1, 1) g*m^2 }}\n mesh p {{\n element quad4\n thickness 1 cm\n {strain}\n generate rect(origin: (0, 0) m, size: (2, 1) m, divisions: (4, 2))\n material alu\n set left = nodes(x == 0)\n tie left, b\n }}"
+        ))
+    };
+    let l = load_str("test.mbd", &src(""), &[]);
+    assert!(!l.has_errors(), "{}", l.render_plain());
+    let warnings: Vec<&str> = l
+        .diagnostics
+        .iter()
+        .filter(|d| d.severity == mbdc_compiler::Severity::Warning)
+        .map(|d| d.message.as_str())
+        .collect();
+    assert!(
+        warnings.len() == 1
+            && warnings[0].contains("mesh `p` is tied to body `b` with small strain"),
+        "{warnings:?}"
+    );
+    let s = l.scene.expect("scene");
+    assert_eq!(
+        s.meshes[0].conditions,
+        vec![MeshCondition::Tie { set: 0, body: 1 }]
+    );
+    // With `strain green`, no warning; a mesh held by `fix` connects its tied body to
+    // ground: only `a` is free.
+    let l = load_str(
+        "test.mbd",
+        &src("strain green\n set right = nodes(x == 2 m)\n fix right"),
+        &[],
+    );
+    let shown: Vec<(mbdc_compiler::Severity, &str)> = l
+        .diagnostics
+        .iter()
+        .map(|d| (d.severity, d.message.as_str()))
+        .collect();
+    assert_eq!(
+        shown,
+        vec![(
+            mbdc_compiler::Severity::Note,
+            "this body is not connected to ground: `a`"
+        )],
+        "{}",
+        l.render_plain()
+    );
+}
+
 #[test]
 fn beams_subdivide_and_attach() {
     let s = scene(&model(

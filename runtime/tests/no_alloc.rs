@@ -465,3 +465,64 @@ fn mesh_steps_do_not_allocate() {
         }
     }
 }
+
+/// Steps of a mesh tied to a body (the ties' wrench, the rigid step with it, placing the
+/// tied nodes, the mesh step, the synchronized state with the newest wrench) do not
+/// allocate: a hub turning on a revolute joint in gravity with the block tied by its root
+/// face, with every rigid method that takes ties.
+#[test]
+fn tied_mesh_steps_do_not_allocate() {
+    use mbdc_runtime::integrators::{self, State};
+    let mut s = scene();
+    s.contacts.clear();
+    s.forces.clear();
+    s.joints.clear();
+    s.bodies.truncate(1);
+    s.bodies[0].position = [-0.1, 0.1, 0.1];
+    s.bodies[0].velocity = [0.0; 3];
+    s.bodies[0].angular_velocity = [0.0, 0.0, 0.0];
+    s.bodies[0].orientation = [1.0, 0.0, 0.0, 0.0];
+    s.joints.push(Joint {
+        name: "hinge".into(),
+        kind: JointKind::Revolute,
+        a: Attachment {
+            body: BodyRef::Ground,
+            point: [-0.2, 0.1, 0.1],
+            frame: IDENTITY,
+        },
+        b: Attachment {
+            body: BodyRef::Body(0),
+            point: [-0.1, 0.0, 0.0],
+            frame: IDENTITY,
+        },
+        origin: Origin::default(),
+    });
+    let mut m = box_mesh(4, 2, 2);
+    m.conditions[0] = MeshCondition::Tie { set: 0, body: 0 };
+    s.meshes.push(m);
+    let sys = Interp::new(&s).unwrap();
+    assert_eq!(sys.layout().meshes.ties.len(), 1);
+    for name in ["staggered", "baumgarte", "penalty", "natural_partitioning"] {
+        let start = State::initial(&sys);
+        let method = MethodSpec::default_for(name).unwrap();
+        let mut it = integrators::make(&method, &sys, 1e-7, &start).unwrap();
+        let mut st = start.clone();
+        it.step(&sys).unwrap();
+        it.state(&sys, &mut st);
+        let ((), count) = allocations(|| {
+            for _ in 0..10 {
+                it.step(&sys).unwrap();
+                it.state(&sys, &mut st);
+                let _ = st.strain_energy();
+            }
+        });
+        assert_eq!(count, 0, "allocations in tied mesh steps ({name})");
+        assert!(
+            st.mesh.energy.strain > 0.0,
+            "{name}: its weight bends the block"
+        );
+        // the system's hub is the hub with its tied nodes, its reference point pulled
+        // towards them
+        assert!(st.pose[0].r.x > -0.09, "{name}: {:?}", st.pose[0].r);
+    }
+}

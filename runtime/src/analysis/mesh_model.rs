@@ -11,6 +11,7 @@
 //!   `∫ N_a dA` of the face area (2-D: edge length × thickness; bars: the end's area);
 //!   the foundation's normal is the area-weighted outward normal of the faces at the node.
 //! - `body_force`: node `a` gets `b · ∫ N_a dV` (the lumped mass with ρ = 1).
+//! - `tie`: left to [`crate::analysis::tie_model::apply`], which needs the bodies.
 //! - Critical step: `h ≤ 2 / max_e ω_e` with `ω_e` the element bound of
 //!   [`solid::max_frequency`] (Irons: the global highest frequency is below the largest
 //!   element one). Congruent elements (a generated mesh's translates) are evaluated once.
@@ -314,7 +315,8 @@ fn check_sets(m: &Mesh) -> Result<(), String> {
             | MeshCondition::Displacement { set, .. }
             | MeshCondition::NodalLoad { set, .. }
             | MeshCondition::Traction { set, .. }
-            | MeshCondition::Foundation { set, .. } => Some(*set),
+            | MeshCondition::Foundation { set, .. }
+            | MeshCondition::Tie { set, .. } => Some(*set),
             MeshCondition::BodyForce { .. } => None,
         };
         if let Some(set) = set {
@@ -418,6 +420,8 @@ fn conditions(
                     });
                 }
             }
+            // Ties need the bodies: `tie_model::apply` lays them out.
+            MeshCondition::Tie { .. } => {}
         }
     }
     let mut keys: Vec<_> = dof.into_iter().collect();

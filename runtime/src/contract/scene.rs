@@ -703,6 +703,15 @@ pub enum MeshCondition {
         /// Modulus, N/m³.
         modulus: f64,
     },
+    /// The set's nodes move rigidly with a body (`tie SET, BODY`): their offsets from the
+    /// body's mass centre stay fixed in the body's axes as they are at t = 0, their mass
+    /// moves to the body, and the mesh's net force on them acts on the body.
+    Tie {
+        /// Node set index.
+        set: usize,
+        /// Body index in `Scene::bodies`.
+        body: usize,
+    },
 }
 
 /// Contact geometry attached to a body.

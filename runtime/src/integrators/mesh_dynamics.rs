@@ -31,6 +31,15 @@
 //! step: the trapezoidal rule like `W`, which makes the elements' discrete balance exact).
 //! `K + U + U_hg + U_f − W + D + D_p` stays at its initial value up to the method's error;
 //! the run loop watches it like a rigid scene's energy.
+//!
+//! **Tied nodes** (`tie SET, BODY`, [`crate::analysis::tie_model`]): constrained in every
+//! component and massless here (their mass is their body's). [`MeshDynamics::step_tied`]
+//! takes their displacement and velocity at the step's end from their bodies (the
+//! half-step velocity of the rate terms is their displacement increment over h); the
+//! constraint's reaction on a tied node is then minus the mesh's net force on it
+//! ([`MeshDynamics::reactions`]), which the integrator hands to the body. The work of those
+//! reactions is kept apart (`tie_work`): it is what the bodies do on the mesh, and the
+//! bodies' energy already counts it.
 
 use std::sync::Arc;
 
@@ -67,6 +76,10 @@ pub struct MeshEnergy {
     /// Plastic work `Σ σ : Δεᵖ` since t = 0 (J): the energy dissipated by plastic flow
     /// (with the share that isotropic hardening accounts for).
     pub plastic: f64,
+    /// Work done on the mesh by the bodies through ties since t = 0 (the tie reactions on
+    /// the tied nodes' displacements). The bodies lose what the mesh gains, so it is not in
+    /// [`MeshEnergy::balance_potential`]; it is in [`MeshEnergy::mesh_balance`].
+    pub tie_work: f64,
 }
 
 impl MeshEnergy {
@@ -107,6 +120,13 @@ impl Clone for PlasticState {
         self.strain.clone_from(&source.strain);
         self.equivalent.clone_from(&source.equivalent);
         self.stress.clone_from(&source.stress);
+    }
+
+    /// The meshes' own balance, constant up to the method's error:
+    /// `K + U + U_hg + U_f − W − W_tie + D` (with ties, the mesh alone is not conservative:
+    /// the bodies work on it through the ties).
+    pub fn mesh_balance(&self) -> f64 {
+        self.kinetic + self.balance_potential() - self.tie_work
     }
 }
 
@@ -187,6 +207,10 @@ pub struct MeshDynamics {
     /// elastic blocks).
     plastic_out: Vec<Vec<PlasticResponse>>,
     energy: MeshEnergy,
+    /// The tied nodes, tie after tie (the order of [`MeshDynamics::step_tied`]'s targets).
+    tied: Vec<u32>,
+    /// Per node: whether it is tied.
+    is_tied: Vec<bool>,
 }
 
 impl MeshDynamics {
@@ -253,6 +277,15 @@ impl MeshDynamics {
                 None => Vec::new(),
             })
             .collect();
+        let tied: Vec<u32> = layout
+            .ties
+            .iter()
+            .flat_map(|t| t.nodes.iter().copied())
+            .collect();
+        let mut is_tied = vec![false; n];
+        for &t in &tied {
+            is_tied[t as usize] = true;
+        }
         let (u, v) = if start.u.len() == n && start.v.len() == n {
             (start.u.clone(), start.v.clone())
         } else {
@@ -281,6 +314,8 @@ impl MeshDynamics {
                 MeshEnergy::default()
             },
             layout,
+            tied,
+            is_tied,
         };
         md.prescribe(t0);
         md.accelerations(t0)?;
@@ -294,12 +329,37 @@ impl MeshDynamics {
         self.t
     }
 
-    /// Advance one step.
+    /// Advance one step (nothing tied: see [`MeshDynamics::step_tied`]).
     ///
     /// # Errors
     /// An element that inverts (its Jacobian determinant reaches zero) or a non-finite
     /// force: the element, its nodes and location.
     pub fn step(&mut self) -> Result<(), StepError> {
+        self.step_tied(&[], &[])
+    }
+
+    /// Advance one step with the tied nodes' displacement `tied_u` and velocity `tied_v` at
+    /// the step's end, one per tied node in the order of the layout's `ties` (their bodies'
+    /// motion). Empty slices leave tied nodes drifting with their last velocity.
+    ///
+    /// # Errors
+    /// As [`MeshDynamics::step`]; targets for a different number of tied nodes.
+    pub fn step_tied(&mut self, tied_u: &[[f64; 3]], tied_v: &[[f64; 3]]) -> Result<(), StepError> {
+        if !tied_u.is_empty() && (tied_u.len() != self.tied.len() || tied_v.len() != tied_u.len()) {
+            return Err(StepError::Mesh {
+                mesh: self
+                    .layout
+                    .ties
+                    .first()
+                    .map_or_else(String::new, |t| t.mesh.clone()),
+                place: "its ties".into(),
+                message: format!(
+                    "{} tied nodes, but motions for {} were given",
+                    self.tied.len(),
+                    tied_u.len()
+                ),
+            });
+        }
         let h = self.h;
         let t1 = self.t + h;
         for (((v, a), u), du) in self
@@ -323,11 +383,23 @@ impl MeshDynamics {
             self.u[n][k] = j.v;
             self.a[n][k] = j.d2;
         }
+        // Tied nodes where their bodies put them; their half-step velocity (for rate terms)
+        // is the increment over the step.
+        for (&n, ut) in self.tied.iter().zip(tied_u) {
+            let n = n as usize;
+            for k in 0..3 {
+                let old = self.u[n][k] - self.du[n][k];
+                self.du[n][k] = ut[k] - old;
+                self.u[n][k] = ut[k];
+                self.v[n][k] = self.du[n][k] / h;
+                self.a[n][k] = 0.0;
+            }
+        }
         // The work of the loads and reactions over the step, trapezoidal: forces at tⁿ
         // (still stored) and at t^{n+1}, both on the step's displacement increment.
-        let w0 = self.work_rate();
+        let (w0, tw0) = self.work_rate();
         self.accelerations(t1)?;
-        let w1 = self.work_rate();
+        let (w1, tw1) = self.work_rate();
         for (v, a) in self.v.iter_mut().zip(&self.a) {
             for k in 0..3 {
                 v[k] += 0.5 * h * a[k];
@@ -336,8 +408,12 @@ impl MeshDynamics {
         for p in &self.layout.prescribed {
             self.v[p.node as usize][p.dof as usize] = fn1::eval(&p.value, t1).d1;
         }
+        for (&n, vt) in self.tied.iter().zip(tied_v) {
+            self.v[n as usize] = *vt;
+        }
         self.t = t1;
         self.energy.external_work += 0.5 * (w0 + w1);
+        self.energy.tie_work += 0.5 * (tw0 + tw1);
         self.energy.dissipated += h * self.scalars.iter().map(|s| s.hourglass_power).sum::<f64>();
         self.energy.plastic += self.plastic_work();
         self.energy_state();
@@ -352,21 +428,44 @@ impl MeshDynamics {
             .sum()
     }
 
-    /// `Σ (f_ext + reaction) · Δu` over the nodes, with the forces now stored.
-    fn work_rate(&self) -> f64 {
-        self.f_ext
+    /// `Σ (f_ext + reaction) · Δu` over the nodes, with the forces now stored, and apart
+    /// the tied nodes' reactions' part, `Σ_tied reaction · Δu`.
+    fn work_rate(&self) -> (f64, f64) {
+        let (mut w, mut tie) = (0.0, 0.0);
+        for (((f, r), d), &tied) in self
+            .f_ext
             .iter()
             .zip(&self.reaction)
             .zip(&self.du)
-            .map(|((f, r), d)| (f[0] + r[0]) * d[0] + (f[1] + r[1]) * d[1] + (f[2] + r[2]) * d[2])
-            .sum()
+            .zip(&self.is_tied)
+        {
+            if tied {
+                w += f[0] * d[0] + f[1] * d[1] + f[2] * d[2];
+                tie += r[0] * d[0] + r[1] * d[1] + r[2] * d[2];
+            } else {
+                w += (f[0] + r[0]) * d[0] + (f[1] + r[1]) * d[1] + (f[2] + r[2]) * d[2];
+            }
+        }
+        (w, tie)
+    }
+
+    /// Per node, the force the constraints supply at the current state (N, world): on a
+    /// fixed or prescribed component the support's reaction; on a tied node minus the
+    /// mesh's net force on it (external, foundation and element forces: the node's mass is
+    /// its body's), so the tie hands `−reactions()[n]` to the body.
+    pub fn reactions(&self) -> &[[f64; 3]] {
+        &self.reaction
     }
 
     /// Set the prescribed components at `t` (displacement, velocity, acceleration) and
-    /// zero the fixed ones.
+    /// zero the fixed ones (tied nodes keep the motion they start with: their bodies').
     fn prescribe(&mut self, t: f64) {
         let l = &self.layout;
         for (n, c) in l.constrained.iter().enumerate() {
+            if self.is_tied[n] {
+                self.a[n] = [0.0; 3];
+                continue;
+            }
             for k in 0..3 {
                 if c[k] {
                     self.u[n][k] = 0.0;

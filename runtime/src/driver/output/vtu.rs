@@ -20,7 +20,7 @@ use crate::contract::scene::ElementKind;
 use crate::contract::system::Layout;
 
 /// Columns of `mesh_energy.csv` after `t`.
-pub const MESH_ENERGY_COLUMNS: [&str; 8] = [
+pub const MESH_ENERGY_COLUMNS: [&str; 9] = [
     "kinetic",
     "strain",
     "hourglass",
@@ -28,6 +28,7 @@ pub const MESH_ENERGY_COLUMNS: [&str; 8] = [
     "external_work",
     "dissipated",
     "plastic",
+    "tie_work",
     "balance",
 ];
 
