@@ -523,6 +523,10 @@ impl fmt::Display for CheckSummary {
                     .as_ref()
                     .map_or(String::new(), |t| format!("; {t}"))
             )?;
+            if !m.tied.is_empty() {
+                write!(f, "; tied: {}", m.tied.join(", "))?;
+            }
+            writeln!(f)?;
         }
         if let Some((limit, place)) = &self.mesh_critical_step {
             writeln!(
@@ -531,10 +535,6 @@ impl fmt::Display for CheckSummary {
                 limit,
                 self.step / limit
             )?;
-            if !m.tied.is_empty() {
-                write!(f, "; tied: {}", m.tied.join(", "))?;
-            }
-            writeln!(f)?;
         }
         if let Some(g) = self.gravity {
             writeln!(

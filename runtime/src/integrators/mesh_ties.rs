@@ -268,7 +268,9 @@ pub fn initial_mesh_state(layout: &Layout, pose: &[Pose], twist: &[Twist]) -> su
         v: vec![[0.0; 3]; m.nodes()],
         stress: vec![[0.0; 6]; m.elements()],
         strain: vec![[0.0; 6]; m.elements()],
-        energy: Default::default(),
+        // Virgin plastic state: the mesh integrator builds it for plastic blocks when the
+        // start has none.
+        ..Default::default()
     };
     // At t = 0 the tied nodes are where their bodies put them (to round-off); a body out
     // of a 2-D mesh's plane is reported by the first step.

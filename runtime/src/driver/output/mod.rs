@@ -127,7 +127,7 @@ pub struct Frame {
     /// Per mesh element: mean equivalent plastic strain (empty when no mesh is plastic).
     pub mesh_equivalent_plastic_strain: Vec<f64>,
     /// The meshes' energies, J, in the order of [`MESH_ENERGY_COLUMNS`].
-    pub mesh_energy: [f64; 8],
+    pub mesh_energy: [f64; 9],
 }
 
 impl Frame {
@@ -152,7 +152,7 @@ impl Frame {
             mesh_strain: vec![[0.0; 6]; layout.meshes.elements()],
             mesh_plastic_strain: vec![[0.0; 6]; plastic_elements(layout)],
             mesh_equivalent_plastic_strain: vec![0.0; plastic_elements(layout)],
-            mesh_energy: [0.0; 8],
+            mesh_energy: [0.0; 9],
         }
     }
 
