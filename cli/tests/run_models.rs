@@ -185,7 +185,16 @@ fn a_failing_run_reports_and_keeps_its_frames() {
 /// which counts the work of the loads) stays below 1e-3, the bound for 10⁴ steps.
 #[test]
 fn every_mesh_model_runs_and_writes_its_series() {
-    for model in ["plate", "hex_bar", "plate_hole", "bracket", "block_impact"] {
+    for model in [
+        "plate",
+        "hex_bar",
+        "plate_hole",
+        "bracket",
+        "block_impact",
+        "plastic_bar",
+        "plastic_dent",
+        "mesh_on_pendulum",
+    ] {
         let dir = out_dir(model);
         let out = command()
             .args(["run", "--interp", "-o"])
@@ -207,10 +216,29 @@ fn every_mesh_model_runs_and_writes_its_series() {
         assert_eq!(pvd.matches("<DataSet").count() as u64, frames, "{model}");
         let energy = std::fs::read_to_string(dir.join("mesh_energy.csv")).expect("csv");
         assert!(energy.starts_with(
-            "t,kinetic,strain,hourglass,foundation,external_work,dissipated,balance\n"
+            "t,kinetic,strain,hourglass,foundation,external_work,dissipated,plastic,tie_work,balance\n"
         ));
         assert_eq!(energy.lines().count() as u64, frames + 1, "{model}");
         assert!(dir.join("mesh_energy.svg").exists(), "{model}: {stdout}");
+        // The summary's energy terms; a plastic mesh's frames carry its plastic strains.
+        let terms = &s["extra"]["mesh_energy"];
+        for k in ["kinetic", "strain", "external_work", "plastic"] {
+            assert!(
+                terms[k].is_number(),
+                "{model}: summary mesh_energy.{k}: {terms}"
+            );
+        }
+        let vtu = std::fs::read_to_string(dir.join("mesh").join("mesh_000001.vtu")).expect("vtu");
+        let plastic = model.starts_with("plastic_");
+        assert_eq!(
+            vtu.contains("Name=\"equivalent_plastic_strain\""),
+            plastic,
+            "{model}"
+        );
+        assert_eq!(vtu.contains("Name=\"plastic_strain\""), plastic, "{model}");
+        if plastic {
+            assert!(terms["plastic"].as_f64().unwrap() > 0.0, "{model}: {terms}");
+        }
         let _ = std::fs::remove_dir_all(&dir);
     }
 }

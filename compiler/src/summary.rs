@@ -3,8 +3,8 @@
 use std::fmt;
 
 use mbdc_runtime::scene::{
-    BodyRef, ElementKind, ForceKind, HourglassControl, MeshFormulation, MeshIntegration,
-    MeshKinematics, MethodSpec, ParamValue, Scene, Vec3,
+    BodyRef, ElementKind, ForceKind, HourglassControl, MeshCondition, MeshFormulation,
+    MeshIntegration, MeshKinematics, MethodSpec, ParamValue, Scene, Vec3,
 };
 use serde::Serialize;
 
@@ -36,7 +36,8 @@ pub struct JointSummary {
 pub struct PartSummary {
     /// Name.
     pub name: String,
-    /// Element kind (`beam`, `quad4`, ...).
+    /// Element kind (`beam`, `quad4`, ...; `, plastic` after a mesh's kind when its
+    /// material is plastic).
     pub kind: String,
     /// Nodes.
     pub nodes: usize,
@@ -46,6 +47,8 @@ pub struct PartSummary {
     pub sets: usize,
     /// The element formulation (meshes: quadrature, hourglass control, strain measure).
     pub formulation: Option<String>,
+    /// Meshes: the sets tied to bodies, as `SET → BODY`.
+    pub tied: Vec<String>,
 }
 
 /// What `mbdc check` reports about a valid scene.
@@ -94,7 +97,8 @@ pub struct CheckSummary {
     pub params: Vec<ParamValue>,
 }
 
-/// Names of bodies not connected to ground through joints or beams.
+/// Names of bodies not connected to ground through joints, beams or meshes (a mesh
+/// connects the bodies tied to it, and to ground when it has fixed or displaced nodes).
 pub fn free_bodies(scene: &Scene) -> Vec<usize> {
     let n = scene.bodies.len();
     // Union-find over bodies + ground (index n).
@@ -120,6 +124,25 @@ pub fn free_bodies(scene: &Scene) -> Vec<usize> {
         let ends: Vec<usize> = beam.attachments.iter().map(|a| idx(a.to.body)).collect();
         for w in ends.windows(2) {
             union(w[0], w[1], &mut parent);
+        }
+    }
+    for m in &scene.meshes {
+        let mut tied = m.conditions.iter().filter_map(|c| match c {
+            MeshCondition::Tie { body, .. } => Some(idx(BodyRef::Body(*body))),
+            _ => None,
+        });
+        let Some(first) = tied.next() else {
+            continue;
+        };
+        for b in tied {
+            union(first, b, &mut parent);
+        }
+        let held = m.conditions.iter().any(|c| {
+            matches!(c, MeshCondition::Fixed { .. })
+                || matches!(c, MeshCondition::Displacement { value, .. } if value.iter().any(Option::is_some))
+        });
+        if held {
+            union(first, n, &mut parent);
         }
     }
     let g = find(&mut parent, n);
@@ -317,6 +340,7 @@ pub fn summary(scene: &Scene) -> CheckSummary {
                 elements: b.nodes.len().saturating_sub(1),
                 sets: b.attachments.len(),
                 formulation: None,
+                tied: Vec::new(),
             })
             .collect(),
         meshes: scene
@@ -324,11 +348,26 @@ pub fn summary(scene: &Scene) -> CheckSummary {
             .iter()
             .map(|m| PartSummary {
                 name: m.name.clone(),
-                kind: element_text(m.kind).into(),
+                kind: match m.material.plastic {
+                    Some(_) => format!("{}, plastic", element_text(m.kind)),
+                    None => element_text(m.kind).into(),
+                },
                 nodes: m.nodes.len(),
                 elements: m.elements.len(),
                 sets: m.node_sets.len(),
                 formulation: Some(formulation_text(m.kind, &m.formulation)),
+                tied: m
+                    .conditions
+                    .iter()
+                    .filter_map(|c| match c {
+                        MeshCondition::Tie { set, body } => Some(format!(
+                            "{} → {}",
+                            m.node_sets.get(*set).map_or("?", |s| s.name.as_str()),
+                            scene.bodies.get(*body).map_or("?", |b| b.name.as_str())
+                        )),
+                        _ => None,
+                    })
+                    .collect(),
             })
             .collect(),
         mesh_critical_step: if scene.meshes.is_empty() {
@@ -472,7 +511,7 @@ impl fmt::Display for CheckSummary {
             )?;
         }
         for m in &self.meshes {
-            writeln!(
+            write!(
                 f,
                 "  mesh         {}: {}, {} nodes, {} elements, {} sets{}",
                 m.name,
@@ -484,6 +523,10 @@ impl fmt::Display for CheckSummary {
                     .as_ref()
                     .map_or(String::new(), |t| format!("; {t}"))
             )?;
+            if !m.tied.is_empty() {
+                write!(f, "; tied: {}", m.tied.join(", "))?;
+            }
+            writeln!(f)?;
         }
         if let Some((limit, place)) = &self.mesh_critical_step {
             writeln!(

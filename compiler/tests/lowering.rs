@@ -4,7 +4,7 @@
 use mbdc_compiler::{load_str, Override, Scene};
 use mbdc_runtime::scene::{
     BodyRef, Fn1, ForceKind, HourglassControl, JointKind, MeshCondition, MeshFormulation,
-    MeshIntegration, MeshKinematics, MethodSpec,
+    MeshIntegration, MeshKinematics, MethodSpec, Plasticity,
 };
 use nalgebra::{Quaternion, Vector3};
 
@@ -490,6 +490,57 @@ fn meshes_and_sets() {
     assert_eq!(h.node_sets[0].faces.len(), 8);
 }
 
+/// `tie SET, BODY` lowers to a tie of the set to the body's index; with small strain it
+/// warns (the body's rotations strain the elements), naming the mesh and the body; with
+/// `strain green` it does not.
+#[test]
+fn ties_name_their_body_and_warn_with_small_strain() {
+    let src = |strain: &str| {
+        model(&format!(
+            "material alu {{ E 70 GPa; nu 0.33; rho 2700 kg/m^3 }}\n body a {{ mass 1 kg; inertia diag(1, 1, 1) g*m^2 }}\n body b {{ mass 1 kg; inertia diag(1, 1, 1) g*m^2 }}\n mesh p {{\n element quad4\n thickness 1 cm\n {strain}\n generate rect(origin: (0, 0) m, size: (2, 1) m, divisions: (4, 2))\n material alu\n set left = nodes(x == 0)\n tie left, b\n }}"
+        ))
+    };
+    let l = load_str("test.mbd", &src(""), &[]);
+    assert!(!l.has_errors(), "{}", l.render_plain());
+    let warnings: Vec<&str> = l
+        .diagnostics
+        .iter()
+        .filter(|d| d.severity == mbdc_compiler::Severity::Warning)
+        .map(|d| d.message.as_str())
+        .collect();
+    assert!(
+        warnings.len() == 1
+            && warnings[0].contains("mesh `p` is tied to body `b` with small strain"),
+        "{warnings:?}"
+    );
+    let s = l.scene.expect("scene");
+    assert_eq!(
+        s.meshes[0].conditions,
+        vec![MeshCondition::Tie { set: 0, body: 1 }]
+    );
+    // With `strain green`, no warning; a mesh held by `fix` connects its tied body to
+    // ground: only `a` is free.
+    let l = load_str(
+        "test.mbd",
+        &src("strain green\n set right = nodes(x == 2 m)\n fix right"),
+        &[],
+    );
+    let shown: Vec<(mbdc_compiler::Severity, &str)> = l
+        .diagnostics
+        .iter()
+        .map(|d| (d.severity, d.message.as_str()))
+        .collect();
+    assert_eq!(
+        shown,
+        vec![(
+            mbdc_compiler::Severity::Note,
+            "this body is not connected to ground: `a`"
+        )],
+        "{}",
+        l.render_plain()
+    );
+}
+
 #[test]
 fn beams_subdivide_and_attach() {
     let s = scene(&model(
@@ -677,4 +728,105 @@ fn mesh_formulation_options() {
         "integration reduced\n hourglass viscous(0.1 m)",
     ));
     assert_eq!((c.as_str(), a.as_str()), ("mbdc::unit-mismatch", "0.1 m"));
+}
+
+/// A one-mesh hex8 model whose material has the given extra lines.
+fn plastic_mesh(material_lines: &str) -> String {
+    model(&format!(
+        "material steel {{\n E 200 GPa; nu 0.3; rho 7850 kg/m^3\n {material_lines}\n }}\n mesh m {{\n element hex8\n generate box(origin: (0, 0, 0) m, size: (1, 1, 1) m, divisions: (1, 1, 1))\n material steel\n }}"
+    ))
+}
+
+#[test]
+fn plastic_materials() {
+    // Yield and hardening in SI; hardening defaults to 0 (perfectly plastic); no block: elastic.
+    let s = scene(&plastic_mesh("plastic { yield 250 MPa; hardening 1 GPa }"));
+    assert_eq!(
+        s.meshes[0].material.plastic,
+        Some(Plasticity {
+            yield_stress: 250e6,
+            hardening: 1e9
+        })
+    );
+    let s = scene(&plastic_mesh("plastic {\n yield 0.3 GPa\n }"));
+    assert_eq!(
+        s.meshes[0].material.plastic,
+        Some(Plasticity {
+            yield_stress: 300e6,
+            hardening: 0.0
+        })
+    );
+    assert_eq!(scene(&plastic_mesh("")).meshes[0].material.plastic, None);
+    // Errors with their spans.
+    let cases = [
+        (
+            "plastic { hardening 1 GPa }",
+            "mbdc::missing-property",
+            "has no `yield`",
+            "plastic { hardening 1 GPa }",
+        ),
+        (
+            "plastic { yield -250 MPa }",
+            "mbdc::invalid-value",
+            "the yield stress must be positive",
+            "-250 MPa",
+        ),
+        (
+            "plastic { yield 0 Pa }",
+            "mbdc::invalid-value",
+            "the yield stress must be positive",
+            "0 Pa",
+        ),
+        (
+            "plastic { yield 250 MPa; hardening -1 GPa }",
+            "mbdc::invalid-value",
+            "the hardening modulus must not be negative",
+            "-1 GPa",
+        ),
+        (
+            "plastic { yield 250 m }",
+            "mbdc::unit-mismatch",
+            "",
+            "250 m",
+        ),
+        (
+            "plastic { yield 250 MPa; hardening 2 }",
+            "mbdc::unit-mismatch",
+            "",
+            "2",
+        ),
+        (
+            "plastic { yield 250 MPa; softening 1 GPa }",
+            "mbdc::unknown-property",
+            "unknown property `softening`",
+            "softening",
+        ),
+        (
+            "plastic { yield 250 MPa }\n plastic { yield 300 MPa }",
+            "mbdc::duplicate-property",
+            "`plastic` is given twice",
+            "plastic { yield 300 MPa }",
+        ),
+        (
+            "plastic = 3 { yield 250 MPa }",
+            "mbdc::wrong-kind",
+            "written with a block",
+            "plastic = 3 { yield 250 MPa }",
+        ),
+    ];
+    for (lines, code, msg, at) in cases {
+        let (c, m, a) = error_at(&plastic_mesh(lines));
+        assert_eq!((c.as_str(), a.as_str()), (code, at), "{lines}: {m}");
+        assert!(m.contains(msg), "{lines}: {m}");
+    }
+    // Beams are elastic: a plastic material is refused at the beam's `material`.
+    let (c, m, a) = error_at(&model(
+        "material steel { E 210 GPa; nu 0.3; rho 7850 kg/m^3; plastic { yield 250 MPa } }\n beam b {\n from (0, 0, 0) m\n to (1, 0, 0) m\n elements 4\n material steel\n shape rect(width: 1 cm, height: 1 cm)\n clamp start\n }",
+    ));
+    assert_eq!(
+        (c.as_str(), a.as_str()),
+        ("mbdc::beam", "material steel"),
+        "{m}"
+    );
+    assert!(m.contains("beams are elastic"), "{m}");
 }

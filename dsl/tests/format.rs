@@ -226,3 +226,18 @@ fn nested_chains_are_laid_out_in_linear_time() {
     let out = fmt(&src);
     assert_eq!(out.lines().count(), 5 * n + 1);
 }
+
+/// A material's `plastic { yield ...; hardening ... }` block: a declaration without a name,
+/// so the material is laid out on several lines and the plastic block, which fits, on one;
+/// formatting is idempotent (checked by `fmt`'s round trip) and keeps the units.
+#[test]
+fn plastic_material_blocks() {
+    assert_eq!(
+        fmt("material steel { E 210 GPa; nu 0.3; rho 7850 kg/m^3; plastic {yield 250 MPa\n hardening 1 GPa} }"),
+        "material steel {\n  E 210 GPa\n  nu 0.3\n  rho 7850 kg/m^3\n  plastic { yield 250 MPa; hardening 1 GPa }\n}\n"
+    );
+    assert_eq!(
+        fmt("material m {\n  E 1 Pa\n  plastic {\n    yield 2 Pa // initial\n  }\n}\n"),
+        "material m {\n  E 1 Pa\n  plastic {\n    yield 2 Pa // initial\n  }\n}\n"
+    );
+}

@@ -53,7 +53,8 @@
 //! - kernels (called by generated code): [`joints`], [`tree_joints`], [`forces`],
 //!   [`contact`], [`fn1`], [`beam_element`];
 //! - before a run: [`topology`], [`coordinates`], [`effects`], [`step_limits`],
-//!   [`input_limits`], [`beam_model`] (beams as bodies);
+//!   [`input_limits`], [`beam_model`] (beams as bodies), [`mesh_model`] (meshes for the
+//!   explicit method), [`tie_model`] (meshes tied to bodies);
 //! - running: [`linalg`], [`integrators`] (`integrators::make` builds the method a scene
 //!   asks for), [`run_loop`] (advance a `System` and stream frames to writers), [`output`],
 //!   [`assemble`], [`energy`];
@@ -74,7 +75,7 @@ pub mod linalg;
 pub mod study;
 
 pub use analysis::{
-    beam_model, coordinates, effects, input_limits, mesh_model, step_limits, topology,
+    beam_model, coordinates, effects, input_limits, mesh_model, step_limits, tie_model, topology,
 };
 pub use contract::{math, mesh_layout, scene, system};
 pub use driver::{assemble, energy, output, run_loop};

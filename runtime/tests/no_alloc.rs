@@ -372,6 +372,7 @@ fn box_mesh(nx: usize, ny: usize, nz: usize) -> Mesh {
             e: 2e11,
             nu: 0.3,
             rho: 7850.0,
+            plastic: None,
         },
         thickness: 1.0,
         node_sets: vec![
@@ -408,17 +409,32 @@ fn box_mesh(nx: usize, ny: usize, nz: usize) -> Mesh {
 }
 
 /// Mesh steps (element loop, gather, update, energy balance, the synchronized state) do not
-/// allocate, on the serial path (a small block) and the parallel one (≥ 2048 elements).
+/// allocate, on the serial path (a small block) and the parallel one (≥ 2048 elements),
+/// elastic and elastoplastic (the return mapping at the 8 points of every element, the
+/// plastic work, the points' state copied into the synchronized state).
 #[test]
 fn mesh_steps_do_not_allocate() {
     use mbdc_runtime::integrators::{self, State};
-    for (nx, ny, nz) in [(4, 2, 2), (16, 12, 12)] {
+    use mbdc_runtime::scene::Plasticity;
+    // A yield stress the first steps exceed, so that the returns do flow.
+    let plastic = Plasticity {
+        yield_stress: 1e-3,
+        hardening: 1e9,
+    };
+    for (nx, ny, nz, plastic) in [
+        (4, 2, 2, None),
+        (16, 12, 12, None),
+        (4, 2, 2, Some(plastic)),
+        (16, 12, 12, Some(plastic)),
+    ] {
         let mut s = scene();
         s.contacts.clear();
         s.bodies.clear();
         s.joints.clear();
         s.forces.clear();
-        s.meshes.push(box_mesh(nx, ny, nz));
+        let mut mesh = box_mesh(nx, ny, nz);
+        mesh.material.plastic = plastic;
+        s.meshes.push(mesh);
         let sys = Interp::new(&s).unwrap();
         let start = State::initial(&sys);
         let method = MethodSpec::default_for("staggered").unwrap();
@@ -434,8 +450,79 @@ fn mesh_steps_do_not_allocate() {
                 let _ = st.strain_energy();
             }
         });
-        assert_eq!(count, 0, "allocations in mesh steps ({nx}×{ny}×{nz})");
+        assert_eq!(
+            count, 0,
+            "allocations in mesh steps ({nx}×{ny}×{nz}, plastic {plastic:?})"
+        );
         assert_eq!(st.mesh.stress.len(), nx * ny * nz);
         assert!(st.mesh.energy.strain > 0.0, "the load deforms the block");
+        if plastic.is_some() {
+            assert_eq!(st.mesh.equivalent_plastic_strain.len(), nx * ny * nz);
+            assert!(st.mesh.energy.plastic > 0.0, "the block yields");
+            assert!(st.mesh.equivalent_plastic_strain.iter().any(|&a| a > 0.0));
+        } else {
+            assert!(st.mesh.plastic.is_empty() && st.mesh.equivalent_plastic_strain.is_empty());
+        }
+    }
+}
+
+/// Steps of a mesh tied to a body (the ties' wrench, the rigid step with it, placing the
+/// tied nodes, the mesh step, the synchronized state with the newest wrench) do not
+/// allocate: a hub turning on a revolute joint in gravity with the block tied by its root
+/// face, with every rigid method that takes ties.
+#[test]
+fn tied_mesh_steps_do_not_allocate() {
+    use mbdc_runtime::integrators::{self, State};
+    let mut s = scene();
+    s.contacts.clear();
+    s.forces.clear();
+    s.joints.clear();
+    s.bodies.truncate(1);
+    s.bodies[0].position = [-0.1, 0.1, 0.1];
+    s.bodies[0].velocity = [0.0; 3];
+    s.bodies[0].angular_velocity = [0.0, 0.0, 0.0];
+    s.bodies[0].orientation = [1.0, 0.0, 0.0, 0.0];
+    s.joints.push(Joint {
+        name: "hinge".into(),
+        kind: JointKind::Revolute,
+        a: Attachment {
+            body: BodyRef::Ground,
+            point: [-0.2, 0.1, 0.1],
+            frame: IDENTITY,
+        },
+        b: Attachment {
+            body: BodyRef::Body(0),
+            point: [-0.1, 0.0, 0.0],
+            frame: IDENTITY,
+        },
+        origin: Origin::default(),
+    });
+    let mut m = box_mesh(4, 2, 2);
+    m.conditions[0] = MeshCondition::Tie { set: 0, body: 0 };
+    s.meshes.push(m);
+    let sys = Interp::new(&s).unwrap();
+    assert_eq!(sys.layout().meshes.ties.len(), 1);
+    for name in ["staggered", "baumgarte", "penalty", "natural_partitioning"] {
+        let start = State::initial(&sys);
+        let method = MethodSpec::default_for(name).unwrap();
+        let mut it = integrators::make(&method, &sys, 1e-7, &start).unwrap();
+        let mut st = start.clone();
+        it.step(&sys).unwrap();
+        it.state(&sys, &mut st);
+        let ((), count) = allocations(|| {
+            for _ in 0..10 {
+                it.step(&sys).unwrap();
+                it.state(&sys, &mut st);
+                let _ = st.strain_energy();
+            }
+        });
+        assert_eq!(count, 0, "allocations in tied mesh steps ({name})");
+        assert!(
+            st.mesh.energy.strain > 0.0,
+            "{name}: its weight bends the block"
+        );
+        // the system's hub is the hub with its tied nodes, its reference point pulled
+        // towards them
+        assert!(st.pose[0].r.x > -0.09, "{name}: {:?}", st.pose[0].r);
     }
 }

@@ -68,6 +68,8 @@ pub struct Rec {
     pub kinetic: f64,
     /// Potential energy.
     pub potential: f64,
+    /// Linear momentum (world).
+    pub momentum: [f64; 3],
     /// Angular momentum (world, about the origin).
     pub angular_momentum: [f64; 3],
     /// Per-joint holonomic violation.
@@ -130,6 +132,7 @@ impl Observer for Recorder {
             lambda: f.state.lambda.clone(),
             kinetic: f.kinetic,
             potential: f.potential,
+            momentum: f.momentum,
             angular_momentum: f.angular_momentum,
             violation: f.violation.to_vec(),
             velocity_violation: f.velocity_violation.to_vec(),
@@ -157,6 +160,35 @@ pub fn simulate(
         every,
         on_failure: OnFailure::Stop,
         watchdog: Watchdog::for_scale(run_loop::length_scale(&sys), true),
+    };
+    let mut rec = Recorder(Vec::new());
+    let report = run_loop::run(&sys, &cfg, &mut rec);
+    Trajectory {
+        frames: rec.0,
+        report,
+    }
+}
+
+/// [`simulate`] with the watchdog of `mbdc run`: the energy growth is checked unless the
+/// scene has energy sources ([`mbdc_runtime::app::energy_sources`]).
+pub fn simulate_watched(
+    scene: &Scene,
+    method: MethodSpec,
+    h: f64,
+    duration: f64,
+    every: u32,
+) -> Trajectory {
+    let sys = Interp::new(scene).expect("interpretable scene");
+    let cfg = RunConfig {
+        duration,
+        step: h,
+        method,
+        every,
+        on_failure: OnFailure::Stop,
+        watchdog: Watchdog::for_scale(
+            run_loop::length_scale(&sys),
+            mbdc_runtime::app::energy_sources(scene),
+        ),
     };
     let mut rec = Recorder(Vec::new());
     let report = run_loop::run(&sys, &cfg, &mut rec);

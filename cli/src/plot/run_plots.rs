@@ -3,7 +3,7 @@
 //! | file | panels |
 //! |---|---|
 //! | `energy.svg` | kinetic, potential and total energy (J); relative drift `(E − E₀)/E_ref` |
-//! | `mesh_energy.svg` | scenes with meshes: kinetic, strain, hourglass, foundation energy, the work of the loads, dissipation (J), and their balance |
+//! | `mesh_energy.svg` | scenes with meshes: kinetic, strain, hourglass, foundation energy, the work of the loads, dissipation, plastic work, the work of the bodies through ties (J), and their balance |
 //! | `constraints.svg` | holonomic violation `max |Φ|` per joint (log scale); velocity residual per nonholonomic joint |
 //! | `trajectories.svg` | mass-centre x, y, z (m) of up to a few bodies |
 //! | `beam_<name>.svg` | per beam: deflection, section forces and moments along it at the last frame ([`super::beam_plots`]) |
@@ -199,10 +199,16 @@ fn mesh_energy_figure(
         "foundation",
         "external_work",
         "dissipated",
+        "plastic",
+        "tie_work",
         "balance",
     ]
     .iter()
     .map(|s| s.to_string())
+    // `plastic` and `tie_work` are absent from the files of runs before plasticity and ties.
+    .filter(|n| {
+        (n != "plastic" && n != "tie_work") || data::header(path).is_ok_and(|h| h.contains(n))
+    })
     .collect();
     let c = data::read(path, &names)?;
     if c.rows() == 0 {
@@ -215,7 +221,10 @@ fn mesh_energy_figure(
         Series::line("strain", color(1), xy(t, col("strain"))),
         Series::line("work of the loads", color(2), xy(t, col("external_work"))),
     ];
-    for (i, n) in ["hourglass", "foundation", "dissipated"].iter().enumerate() {
+    for (i, n) in ["hourglass", "foundation", "dissipated", "plastic", "tie_work"]
+        .iter()
+        .enumerate()
+    {
         if col(n).iter().any(|v| *v != 0.0) {
             series.push(Series::line(*n, color(3 + i), xy(t, col(n))));
         }
@@ -229,7 +238,8 @@ fn mesh_energy_figure(
         ..Panel::default()
     };
     let balance = Panel {
-        title: "Balance K + U + U_hg + U_f − W + D (constant up to the method's error)".into(),
+        title: "Balance K + U + U_hg + U_f − W − W_tie + D + D_p (constant up to the method's error)"
+            .into(),
         x: Axis::linear(TIME),
         y: Axis::linear("energy (J)"),
         series: vec![Series::line("balance", BLACKISH, xy(t, col("balance")))],

@@ -1,4 +1,4 @@
-//! Materials and flexible beams.
+//! Materials (elastic constants, and J2 plasticity for meshes) and flexible beams.
 //!
 //! Sections from a material and a shape: `A`, second moments `I2` (about section axis 2,
 //! which lies along `up`) and `I3` (about axis 3), torsion constant `J`, and a shear
@@ -9,7 +9,9 @@
 //! `J = a b³ (1/3 − 0.21 (b/a)(1 − b⁴/(12 a⁴)))` with `a ≥ b` the longer and shorter side.
 
 use mbdc_dsl::ast::{Expr, ExprKind, ItemKind};
-use mbdc_runtime::scene::{Attachment, Beam, BeamAttachment, BodyRef, Material, Section, Vec3};
+use mbdc_runtime::scene::{
+    Attachment, Beam, BeamAttachment, BodyRef, Material, Plasticity, Section, Vec3,
+};
 use nalgebra::Vector3;
 
 use super::body::num;
@@ -26,6 +28,7 @@ use crate::value::Value;
 pub const MAX_BEAM_ELEMENTS: usize = 1_000_000;
 
 const MATERIAL_KEYS: &[Key] = &[one("E"), one("nu"), one("rho")];
+const PLASTIC_KEYS: &[Key] = &[one("yield"), one("hardening")];
 const BEAM_KEYS: &[Key] = &[
     one("from"),
     one("to"),
@@ -174,7 +177,8 @@ impl<'a> Lowerer<'a> {
         let Some(block) = d.block else {
             return Err(Reported);
         };
-        let props = self.props(block, sc, &what, MATERIAL_KEYS, &[]);
+        let props = self.props(block, sc, &what, MATERIAL_KEYS, &["plastic"]);
+        let plastic = self.material_plastic(&props, sc, &what);
         let e = match props.value("E") {
             Some(x) => self.positive(x, sc, Dim::PRESSURE, "Young's modulus E"),
             None => Err(self.missing(&props, "E", &what, sc, d.name_span, "E 210 GPa")),
@@ -205,7 +209,59 @@ impl<'a> Lowerer<'a> {
             e: e?,
             nu: nu?,
             rho: rho?,
+            plastic: plastic?,
         })
+    }
+
+    /// The material's `plastic { yield ...; hardening ... }` block, if any: J2 plasticity
+    /// with the initial yield stress (> 0) and the linear isotropic hardening modulus
+    /// (≥ 0, default 0: perfectly plastic), both stresses.
+    fn material_plastic(
+        &mut self,
+        props: &super::props::Props<'a>,
+        sc: &Scope,
+        what: &str,
+    ) -> R<Option<Plasticity>> {
+        let Some(&item) = props.decls.first() else {
+            return Ok(None);
+        };
+        if let Some(second) = props.decls.get(1) {
+            return Err(self.report(
+                Diagnostic::error(
+                    codes::DUPLICATE_PROPERTY,
+                    format!("`plastic` is given twice in {what}"),
+                )
+                .primary(sc.file, second.span, "second")
+                .secondary(sc.file, item.span, "first"),
+            ));
+        }
+        let form =
+            "`plastic` is written with a block: `plastic { yield 250 MPa; hardening 1 GPa }`";
+        let ItemKind::Decl {
+            body: Some(block),
+            name: None,
+            value: None,
+            ..
+        } = &item.kind
+        else {
+            return Err(self.report(
+                Diagnostic::error(codes::WRONG_KIND, form).primary(sc.file, item.span, ""),
+            ));
+        };
+        let inner = format!("the `plastic` block of {what}");
+        let pp = self.props(block, sc, &inner, PLASTIC_KEYS, &[]);
+        let yield_stress = match pp.value("yield") {
+            Some(x) => self.positive(x, sc, Dim::PRESSURE, "the yield stress"),
+            None => Err(self.missing(&pp, "yield", &inner, sc, item.span, "yield 250 MPa")),
+        };
+        let hardening = match pp.value("hardening") {
+            Some(x) => self.nonneg(x, sc, Dim::PRESSURE, "the hardening modulus"),
+            None => Ok(0.0),
+        };
+        Ok(Some(Plasticity {
+            yield_stress: yield_stress?,
+            hardening: hardening?,
+        }))
     }
 
     /// The material a name refers to.
@@ -593,7 +649,18 @@ impl<'a> Lowerer<'a> {
             (None, Some(m), Some(s)) => {
                 let mat = self.material_ref(&m.values[0], sc);
                 let dims = self.shape_dims(&s.values[0], sc);
-                Ok(shape_section(&mat?, &dims?))
+                let mat = mat?;
+                if mat.plastic.is_some() {
+                    return Err(self.report(
+                        Diagnostic::error(
+                            codes::BEAM,
+                            format!("{what} uses a plastic material; beams are elastic"),
+                        )
+                        .primary(sc.file, m.span, "this material has a `plastic` block")
+                        .help("give the beam a material without `plastic` (plasticity is for meshes), or model the part as a mesh"),
+                    ));
+                }
+                Ok(shape_section(&mat, &dims?))
             }
             (None, None, None) => Err(self.report(
                 Diagnostic::error(codes::MISSING_PROPERTY, format!("{what} has no section"))
@@ -695,6 +762,7 @@ mod tests {
             e: 210e9,
             nu: 0.3,
             rho: 7850.0,
+            plastic: None,
         };
         let s = shape_section(
             &steel,

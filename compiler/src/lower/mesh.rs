@@ -1,12 +1,12 @@
 //! Finite-element meshes: generation (structured rectangles and boxes), Gmsh import,
-//! node sets, boundary conditions and loads.
+//! node sets, boundary conditions and loads, and ties of node sets to bodies.
 
 use std::collections::HashMap;
 
 use mbdc_dsl::ast::{Expr, ExprKind, ItemKind, Span};
 use mbdc_runtime::scene::{
-    ElementKind, Fn1, HourglassControl, Mesh, MeshCondition, MeshFormulation, MeshIntegration,
-    MeshKinematics, NodeSet, Vec3,
+    BodyRef, ElementKind, Fn1, HourglassControl, Mesh, MeshCondition, MeshFormulation,
+    MeshIntegration, MeshKinematics, NodeSet, Vec3,
 };
 
 use super::body::num;
@@ -63,6 +63,12 @@ const MESH_KEYS: &[Key] = &[
     one("body_force"),
     Key {
         name: "foundation",
+        min: 2,
+        max: 2,
+        repeat: true,
+    },
+    Key {
+        name: "tie",
         min: 2,
         max: 2,
         repeat: true,
@@ -419,12 +425,13 @@ impl<'a> Lowerer<'a> {
         }
         // Conditions, in order.
         let mut conditions = Vec::new();
+        let mut spans = Vec::new();
         let mut body_force_seen = false;
         for p in &props.list {
             let key = p.key.name.as_str();
             if !matches!(
                 key,
-                "fix" | "displace" | "load" | "traction" | "body_force" | "foundation"
+                "fix" | "displace" | "load" | "traction" | "body_force" | "foundation" | "tie"
             ) {
                 continue;
             }
@@ -432,12 +439,24 @@ impl<'a> Lowerer<'a> {
             match r {
                 Ok(c) => {
                     body_force_seen |= matches!(c, MeshCondition::BodyForce { .. });
-                    conditions.push(c)
+                    conditions.push(c);
+                    spans.push(p.span);
                 }
                 Err(_) => ok = false,
             }
         }
         let _ = body_force_seen;
+        {
+            // the conditions that lowered, whatever the others did
+            let ties = Ties {
+                what: &what,
+                conditions: &conditions,
+                spans: &spans,
+                sets: &sets,
+                nodes: &nodes,
+            };
+            ok &= self.check_ties(&ties, sc, formulation.kinematics);
+        }
         if !ok {
             return Err(Reported);
         }
@@ -1375,6 +1394,21 @@ impl<'a> Lowerer<'a> {
         }
         match key {
             "fix" => Ok(MeshCondition::Fixed { set }),
+            "tie" => {
+                let be = &values[1];
+                let bv = self.eval(be, sc)?;
+                match self.body_ref(&bv, be.span, sc)? {
+                    BodyRef::Body(body) => Ok(MeshCondition::Tie { set, body }),
+                    BodyRef::Ground => Err(self.report(
+                        Diagnostic::error(
+                            codes::MESH,
+                            "a node set is tied to a body, not to ground",
+                        )
+                        .primary(sc.file, be.span, "")
+                        .help(format!("`fix {}` holds the set in place", sets[set].name)),
+                    )),
+                }
+            }
             "displace" => {
                 let e = &values[1];
                 let ExprKind::Tuple(items) = &e.kind else {
@@ -1429,6 +1463,91 @@ impl<'a> Lowerer<'a> {
                 Ok(MeshCondition::Foundation { set, modulus: m })
             }
         }
+    }
+
+    /// The ties of a mesh against its other conditions: a tied node is neither fixed nor
+    /// displaced, nor tied twice (errors with both conditions' spans); a tie of a mesh with
+    /// small strain gets a warning (the body's rotations strain it spuriously). Whether
+    /// everything is fine.
+    fn check_ties(&mut self, t: &Ties<'_>, sc: &Scope, kinematics: MeshKinematics) -> bool {
+        let mut ok = true;
+        let mut warned = false;
+        for (i, c) in t.conditions.iter().enumerate() {
+            let MeshCondition::Tie { set, body } = *c else {
+                continue;
+            };
+            let bname = self
+                .scene_bodies
+                .get(body)
+                .and_then(|b| b.as_ref())
+                .map(|b| b.name.clone())
+                .unwrap_or_default();
+            for (j, o) in t.conditions.iter().enumerate() {
+                let (os, what) = match o {
+                    MeshCondition::Fixed { set } => (*set, "fixed"),
+                    MeshCondition::Displacement { set, value }
+                        if value.iter().any(Option::is_some) =>
+                    {
+                        (*set, "displaced")
+                    }
+                    MeshCondition::Tie { set, .. } if j < i => (*set, "tied"),
+                    _ => continue,
+                };
+                let theirs = &t.sets[os].nodes;
+                let Some(&n) = t.sets[set]
+                    .nodes
+                    .iter()
+                    .find(|n| theirs.binary_search(n).is_ok())
+                else {
+                    continue;
+                };
+                let x = t.nodes[n];
+                let place = format!(
+                    "node {n} at ({}, {}, {}) m",
+                    num(x[0]),
+                    num(x[1]),
+                    num(x[2])
+                );
+                let (message, help) = if what == "tied" {
+                    (
+                        format!("{place} of {} is tied twice", t.what),
+                        "a node moves with one body: make the tied sets disjoint",
+                    )
+                } else {
+                    (
+                        format!("{place} of {} is tied to body `{bname}` and {what}", t.what),
+                        "a tied node moves with its body: take it out of one of the two sets",
+                    )
+                };
+                let (here, there) = if what == "tied" {
+                    ("tied again here".to_string(), "first tied here".to_string())
+                } else {
+                    ("tied here".to_string(), format!("{what} here"))
+                };
+                self.report(
+                    Diagnostic::error(codes::MESH, message)
+                        .primary(sc.file, t.spans[i], here)
+                        .secondary(sc.file, t.spans[j], there)
+                        .help(help),
+                );
+                ok = false;
+            }
+            if kinematics == MeshKinematics::Small && !warned {
+                warned = true;
+                self.report(
+                    Diagnostic::warning(
+                        codes::MESH,
+                        format!(
+                            "{} is tied to body `{bname}` with small strain: a rotation θ of the body stresses its elements by about E·θ²/2 where it should not (0.5 % of E at 0.1 rad)",
+                            t.what
+                        ),
+                    )
+                    .primary(sc.file, t.spans[i], "")
+                    .help("use `strain green` (exact under large rotations), or keep the body's rotations small"),
+                );
+            }
+        }
+        ok
     }
 
     /// A vector of functions of time with 3 components, or 2 in 2-D (z = 0).
@@ -1497,6 +1616,16 @@ pub fn coincident_nodes(nodes: &[Vec3]) -> Vec<(usize, usize)> {
     }
     pairs.sort_unstable();
     pairs
+}
+
+/// A mesh's lowered conditions with what [`Lowerer::check_ties`] needs to judge its ties.
+struct Ties<'t> {
+    what: &'t str,
+    conditions: &'t [MeshCondition],
+    /// The span of each condition's property.
+    spans: &'t [Span],
+    sets: &'t [NodeSet],
+    nodes: &'t [Vec3],
 }
 
 fn element_name(k: ElementKind) -> &'static str {

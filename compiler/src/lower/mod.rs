@@ -98,6 +98,20 @@ impl EntKind {
             EntKind::Instance => "component instance",
         }
     }
+
+    /// The plural of [`EntKind::noun`].
+    pub fn nouns(self) -> &'static str {
+        match self {
+            EntKind::Body => "bodies",
+            EntKind::Joint => "joints",
+            EntKind::Force => "forces",
+            EntKind::Contact => "contacts",
+            EntKind::Material => "materials",
+            EntKind::Beam => "beams",
+            EntKind::Mesh => "meshes",
+            EntKind::Instance => "component instances",
+        }
+    }
 }
 
 /// A registered name.
@@ -333,8 +347,8 @@ impl<'a> Lowerer<'a> {
         d = match help {
             Some(h) => d.help(h),
             None if !names.is_empty() && names.len() <= 12 => d.help(format!(
-                "declared {}s: {}",
-                kind.noun(),
+                "declared {}: {}",
+                kind.nouns(),
                 names
                     .iter()
                     .map(|s| format!("`{s}`"))

@@ -11,6 +11,7 @@
 //!   `∫ N_a dA` of the face area (2-D: edge length × thickness; bars: the end's area);
 //!   the foundation's normal is the area-weighted outward normal of the faces at the node.
 //! - `body_force`: node `a` gets `b · ∫ N_a dV` (the lumped mass with ρ = 1).
+//! - `tie`: left to [`crate::analysis::tie_model::apply`], which needs the bodies.
 //! - Critical step: `h ≤ 2 / max_e ω_e` with `ω_e` the element bound of
 //!   [`solid::max_frequency`] (Irons: the global highest frequency is below the largest
 //!   element one). Congruent elements (a generated mesh's translates) are evaluated once.
@@ -46,6 +47,14 @@ pub fn elastic(m: &Material) -> Elastic {
         e: m.e,
         rho: m.rho,
     }
+}
+
+/// The J2 plasticity constants of a material, for the kernels (`None`: elastic).
+pub fn plastic(m: &Material) -> Option<solid::Plastic> {
+    m.plastic.map(|p| solid::Plastic {
+        yield_stress: p.yield_stress,
+        hardening: p.hardening,
+    })
 }
 
 /// How the elements of a block are evaluated: the block's thickness and plane mode, and
@@ -171,6 +180,20 @@ pub fn build(meshes: &[Mesh]) -> Result<MeshLayout, MeshError> {
                 mat.nu
             )));
         }
+        if let Some(p) = &mat.plastic {
+            if !(p.yield_stress.is_finite() && p.yield_stress > 0.0) {
+                return Err(err(format!(
+                    "the plastic yield stress must be positive and finite, got {}",
+                    p.yield_stress
+                )));
+            }
+            if !(p.hardening.is_finite() && p.hardening >= 0.0) {
+                return Err(err(format!(
+                    "the plastic hardening modulus must be zero or positive and finite, got {}",
+                    p.hardening
+                )));
+            }
+        }
         let thickness = if m.kind.dim() == 2 || m.kind == ElementKind::Bar2 {
             m.thickness
         } else {
@@ -292,7 +315,8 @@ fn check_sets(m: &Mesh) -> Result<(), String> {
             | MeshCondition::Displacement { set, .. }
             | MeshCondition::NodalLoad { set, .. }
             | MeshCondition::Traction { set, .. }
-            | MeshCondition::Foundation { set, .. } => Some(*set),
+            | MeshCondition::Foundation { set, .. }
+            | MeshCondition::Tie { set, .. } => Some(*set),
             MeshCondition::BodyForce { .. } => None,
         };
         if let Some(set) = set {
@@ -396,6 +420,8 @@ fn conditions(
                     });
                 }
             }
+            // Ties need the bodies: `tie_model::apply` lays them out.
+            MeshCondition::Tie { .. } => {}
         }
     }
     let mut keys: Vec<_> = dof.into_iter().collect();
@@ -695,6 +721,7 @@ mod tests {
                 e: 200e9,
                 nu: 0.3,
                 rho: 8000.0,
+                plastic: None,
             },
             thickness: 1.0,
             nodes,

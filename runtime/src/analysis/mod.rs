@@ -6,6 +6,9 @@
 //!   joints, and the table of elements between them.
 //! - [`mesh_model`]: finite-element meshes flattened for the explicit method (nodes,
 //!   element blocks, lumped masses, conditions as node tables) and their critical step.
+//! - [`tie_model`]: node sets of meshes tied to bodies — the bodies with their tied nodes'
+//!   inertia (reference point at the joint mass centre), the tied nodes as constrained,
+//!   massless mesh nodes.
 //! - [`coordinates`]: the independent coordinates natural partitioning uses, per tree joint
 //!   (what `mbdc check --topology` prints).
 //! - [`effects`]: the effects a scene uses (gravity, springs, contact, closed loops, …): the
@@ -22,4 +25,5 @@ pub mod effects;
 pub mod input_limits;
 pub mod mesh_model;
 pub mod step_limits;
+pub mod tie_model;
 pub mod topology;

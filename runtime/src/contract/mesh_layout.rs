@@ -31,6 +31,11 @@ pub struct MeshLayout {
     pub first: Vec<u32>,
     /// See `first`. A slot is `block.first_slot + element · nodes_per_element + local`.
     pub slots: Vec<u32>,
+    /// Node sets tied to bodies (`tie SET, BODY`), in scene order. Their nodes are
+    /// `constrained` in every component and have no mass here: it belongs to the body.
+    pub ties: Vec<MeshTie>,
+    /// The bodies that carry tied nodes, each once (empty without ties).
+    pub tied_bodies: Vec<TiedBody>,
 }
 
 impl MeshLayout {
@@ -51,6 +56,10 @@ impl MeshLayout {
     /// Number of elements of all meshes.
     pub fn elements(&self) -> usize {
         self.blocks.iter().map(|b| b.elements()).sum()
+    }
+    /// Whether some mesh has a plastic material.
+    pub fn is_plastic(&self) -> bool {
+        self.blocks.iter().any(|b| b.material.plastic.is_some())
     }
 }
 
@@ -123,4 +132,42 @@ pub struct FoundationSpring {
     pub k: f64,
     /// Unit normal of the supported faces at the node (reference configuration).
     pub n: [f64; 3],
+}
+
+/// A node set tied to a body: its nodes move rigidly with the body, and the mesh's net force
+/// on them acts on the body (docs/methods.md, "Meshes tied to bodies").
+#[derive(Clone, Debug, PartialEq)]
+pub struct MeshTie {
+    /// The mesh's name.
+    pub mesh: String,
+    /// The set's name.
+    pub set: String,
+    /// The body's index in the layout.
+    pub body: usize,
+    /// The tied nodes (global indices, increasing).
+    pub nodes: Vec<u32>,
+    /// Per node: its offset from the body's reference point (the mass centre of the body
+    /// with its tied nodes), body axes, m; the node is at `r + C·offset`.
+    pub offsets: Vec<[f64; 3]>,
+    /// Per node: its lumped mass (kg), which the body carries.
+    pub mass: Vec<f64>,
+    /// A 2-D mesh: the tie moves the nodes in the plane z = 0 only.
+    pub plane: bool,
+}
+
+/// A body that carries tied nodes. The system integrates it as one rigid body with the
+/// nodes' masses (its mass, inertia and reference point are those of the body with its
+/// tied nodes); its own mass centre is `shift` away from that reference point
+/// ([`crate::analysis::tie_model::own_centre`] converts a state back to it).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TiedBody {
+    /// The body's index in the layout.
+    pub body: usize,
+    /// The reference point (mass centre of body and tied nodes) from the body's own mass
+    /// centre, body axes, m.
+    pub shift: [f64; 3],
+    /// The body's own mass, kg.
+    pub own_mass: f64,
+    /// The tied nodes' mass it carries, kg.
+    pub tied_mass: f64,
 }

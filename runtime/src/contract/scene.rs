@@ -540,7 +540,7 @@ impl ElementKind {
     }
 }
 
-/// An isotropic linear-elastic material.
+/// An isotropic linear-elastic material, optionally elastoplastic (J2) for meshes.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Material {
     /// Young's modulus, Pa.
@@ -549,6 +549,20 @@ pub struct Material {
     pub nu: f64,
     /// Density, kg/m³.
     pub rho: f64,
+    /// J2 (von Mises) plasticity with linear isotropic hardening (`plastic { ... }`);
+    /// `None`: elastic. Meshes only (beams are elastic and refuse it).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub plastic: Option<Plasticity>,
+}
+
+/// J2 (von Mises) plasticity with linear isotropic hardening: the yield stress grows with
+/// the equivalent plastic strain `ε̄ᵖ` as `σ_y(ε̄ᵖ) = σ_y0 + H ε̄ᵖ`.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Plasticity {
+    /// Initial (uniaxial) yield stress `σ_y0`, Pa (> 0).
+    pub yield_stress: f64,
+    /// Linear isotropic hardening modulus `H`, Pa (≥ 0; 0 = perfectly plastic).
+    pub hardening: f64,
 }
 
 /// A finite-element mesh with its boundary conditions and loads.
@@ -688,6 +702,15 @@ pub enum MeshCondition {
         set: usize,
         /// Modulus, N/m³.
         modulus: f64,
+    },
+    /// The set's nodes move rigidly with a body (`tie SET, BODY`): their offsets from the
+    /// body's mass centre stay fixed in the body's axes as they are at t = 0, their mass
+    /// moves to the body, and the mesh's net force on them acts on the body.
+    Tie {
+        /// Node set index.
+        set: usize,
+        /// Body index in `Scene::bodies`.
+        body: usize,
     },
 }
 

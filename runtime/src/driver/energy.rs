@@ -8,8 +8,12 @@
 //! p = Σ m v                                   (world)
 //! L = Σ r × m v + C J ω                       (about the world origin, world components)
 //! ```
+//!
+//! and, for the meshes' nodes ([`mesh_momenta`]), `Σ m v` and `Σ x × m v`.
 
+use crate::contract::mesh_layout::MeshLayout;
 use crate::contract::system::{Layout, Pose, Twist};
+use crate::integrators::MeshState;
 use nalgebra::Vector3;
 
 /// Kinetic energy `Σ ½ m |v|² + ½ ωᵀ J ω`, J.
@@ -41,6 +45,23 @@ pub fn angular_momentum(layout: &Layout, pose: &[Pose], twist: &[Twist]) -> Vect
         .fold(Vector3::zeros(), |acc, (m, (p, t))| {
             acc + p.r.cross(&(m.m * t.v)) + p.c * (m.j * t.w)
         })
+}
+
+/// Linear momentum `Σ m v` (world) and angular momentum about the world origin
+/// `Σ (x₀ + u) × m v` of the meshes' nodes with their lumped masses (a tied node has no mass
+/// in the mesh: its momentum is its body's). Zero for an empty state.
+pub fn mesh_momenta(meshes: &MeshLayout, st: &MeshState) -> (Vector3<f64>, Vector3<f64>) {
+    let (mut p, mut l) = (Vector3::zeros(), Vector3::zeros());
+    if st.u.len() != meshes.nodes() || st.v.len() != meshes.nodes() {
+        return (p, l);
+    }
+    for (((x0, u), v), &m) in meshes.x0.iter().zip(&st.u).zip(&st.v).zip(&meshes.mass) {
+        let mv = Vector3::from(*v) * m;
+        let x = Vector3::new(x0[0] + u[0], x0[1] + u[1], x0[2] + u[2]);
+        p += mv;
+        l += x.cross(&mv);
+    }
+    (p, l)
 }
 
 #[cfg(test)]

@@ -27,7 +27,7 @@
 //! last good frame with half the step, and says so through [`Observer::notice`].
 
 use crate::contract::scene::MethodSpec;
-use crate::contract::system::{ConstraintEval, Need, RowKind, System};
+use crate::contract::system::{ConstraintEval, Layout, Need, RowKind, System};
 use crate::driver::energy;
 use crate::integrators::{self, State, StepError};
 
@@ -90,15 +90,16 @@ pub struct RunConfig {
 pub struct Frame<'a> {
     /// Step number (steps of the current step size since the start, counting retries).
     pub step: u64,
-    /// The synchronized state.
+    /// The synchronized state. A body that carries tied mesh nodes is given at its own mass
+    /// centre (the system integrates it at the mass centre of body and nodes).
     pub state: &'a State,
     /// Kinetic energy, J.
     pub kinetic: f64,
     /// Potential energy, J: gravity and springs, plus the strain energy of the beams.
     pub potential: f64,
-    /// Linear momentum, world.
+    /// Linear momentum of the bodies and the meshes' nodes, world.
     pub momentum: [f64; 3],
-    /// Angular momentum about the world origin, world.
+    /// Angular momentum of the bodies and the meshes' nodes about the world origin, world.
     pub angular_momentum: [f64; 3],
     /// Per joint: largest |Φ| over its holonomic rows (0 if none or inactive).
     pub violation: &'a [f64],
@@ -171,6 +172,8 @@ struct Probe {
     resid: Vec<f64>,
     violation: Vec<f64>,
     velocity_violation: Vec<f64>,
+    /// A frame's state with the bodies that carry tied nodes at their own mass centres.
+    own: State,
 }
 
 impl Probe {
@@ -181,6 +184,7 @@ impl Probe {
             resid: vec![0.0; l.rows],
             violation: vec![0.0; l.joints.len()],
             velocity_violation: vec![0.0; l.joints.len()],
+            own: State::new(l.bodies(), l.rows),
         }
     }
 
@@ -221,7 +225,13 @@ impl Probe {
 /// potential can stay near zero while all of these grow).
 fn mesh_in_play(st: &State) -> f64 {
     let e = &st.mesh.energy;
-    e.kinetic + e.strain + e.hourglass + e.foundation + e.external_work.abs() + e.dissipated
+    e.kinetic
+        + e.strain
+        + e.hourglass
+        + e.foundation
+        + e.external_work.abs()
+        + e.dissipated
+        + e.plastic
 }
 
 /// The energy bookkeeping of a run, updated after every step.
@@ -558,6 +568,31 @@ fn track(
     }
 }
 
+/// `st` with every body that carries tied mesh nodes at its own mass centre, in `o`
+/// (buffers reused); `st` itself without ties.
+fn own_centres<'s>(o: &'s mut State, layout: &Layout, st: &'s State) -> &'s State {
+    let tied = &layout.meshes.tied_bodies;
+    if tied.is_empty() {
+        return st;
+    }
+    o.t = st.t;
+    o.pose.clone_from(&st.pose);
+    o.twist.clone_from(&st.twist);
+    o.lambda.clone_from(&st.lambda);
+    o.active.clone_from(&st.active);
+    o.beams.clone_from(&st.beams);
+    o.mesh.u.clone_from(&st.mesh.u);
+    o.mesh.v.clone_from(&st.mesh.v);
+    o.mesh.stress.clone_from(&st.mesh.stress);
+    o.mesh.strain.clone_from(&st.mesh.strain);
+    o.mesh.energy = st.mesh.energy;
+    for tb in tied {
+        (o.pose[tb.body], o.twist[tb.body]) =
+            crate::analysis::tie_model::own_centre(tb, &st.pose[tb.body], &st.twist[tb.body]);
+    }
+    o
+}
+
 /// Hand an output frame to the observer; `probe.violation` holds the holonomic violations
 /// of `st` already (the watchdog evaluated them), `ew` its energies.
 fn emit<S: System>(
@@ -570,11 +605,13 @@ fn emit<S: System>(
 ) {
     let layout = sys.layout();
     probe.velocity(sys, st);
-    let p = energy::linear_momentum(layout, &st.twist);
-    let l = energy::angular_momentum(layout, &st.pose, &st.twist);
+    let (mp, ml) = energy::mesh_momenta(&layout.meshes, &st.mesh);
+    let p = energy::linear_momentum(layout, &st.twist) + mp;
+    let l = energy::angular_momentum(layout, &st.pose, &st.twist) + ml;
+    let state = own_centres(&mut probe.own, layout, st);
     obs.frame(&Frame {
         step,
-        state: st,
+        state,
         kinetic: ew.kinetic,
         potential: ew.potential,
         momentum: [p.x, p.y, p.z],
@@ -760,6 +797,8 @@ struct ToWriter<'a> {
     error: Option<crate::driver::output::OutputError>,
     /// Per beam element: whether it is its beam's first (the arc length restarts).
     first_element: Vec<bool>,
+    /// The meshes' energies at the last frame (for the summary).
+    mesh_energy: crate::integrators::MeshEnergy,
 }
 
 impl Observer for ToWriter<'_> {
@@ -800,14 +839,22 @@ impl Observer for ToWriter<'_> {
             out.mesh_v.copy_from_slice(&m.v);
             out.mesh_stress.copy_from_slice(&m.stress);
             out.mesh_strain.copy_from_slice(&m.strain);
+            if m.plastic_strain.len() == out.mesh_plastic_strain.len() {
+                out.mesh_plastic_strain.copy_from_slice(&m.plastic_strain);
+                out.mesh_equivalent_plastic_strain
+                    .copy_from_slice(&m.equivalent_plastic_strain);
+            }
         } else {
             // the initial frame: at rest, undeformed
             out.mesh_u.fill([0.0; 3]);
             out.mesh_v.fill([0.0; 3]);
             out.mesh_stress.fill([0.0; 6]);
             out.mesh_strain.fill([0.0; 6]);
+            out.mesh_plastic_strain.fill([0.0; 6]);
+            out.mesh_equivalent_plastic_strain.fill(0.0);
         }
         let e = &m.energy;
+        self.mesh_energy = *e;
         out.mesh_energy = [
             e.kinetic,
             e.strain,
@@ -815,7 +862,9 @@ impl Observer for ToWriter<'_> {
             e.foundation,
             e.external_work,
             e.dissipated,
-            e.kinetic + e.balance_potential(),
+            e.plastic,
+            e.tie_work,
+            e.mesh_balance(),
         ];
         if let Err(e) = self.writer.submit(out) {
             self.error = Some(e);
@@ -852,6 +901,7 @@ pub fn run_to_dir<S: System>(
         inner: progress,
         error: None,
         first_element,
+        mesh_energy: Default::default(),
     };
     let t0 = std::time::Instant::now();
     let report = run(sys, cfg, &mut obs);
@@ -893,6 +943,25 @@ pub fn run_to_dir<S: System>(
             "max_violation_of_joint_length".into(),
             serde_json::Value::Number(v),
         );
+    }
+    if !sys.layout().meshes.is_empty() {
+        // The meshes' energy balance at the last frame, term by term (J).
+        let e = &obs.mesh_energy;
+        let terms: serde_json::Map<String, serde_json::Value> = [
+            ("kinetic", e.kinetic),
+            ("strain", e.strain),
+            ("hourglass", e.hourglass),
+            ("foundation", e.foundation),
+            ("external_work", e.external_work),
+            ("dissipated", e.dissipated),
+            ("plastic", e.plastic),
+        ]
+        .into_iter()
+        .filter_map(|(k, v)| Some((k.to_string(), serde_json::Number::from_f64(v)?.into())))
+        .collect();
+        summary
+            .extra
+            .insert("mesh_energy".into(), serde_json::Value::Object(terms));
     }
     let ToWriter { writer, error, .. } = obs;
     if let Some(e) = error {

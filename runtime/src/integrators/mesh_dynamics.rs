@@ -16,22 +16,44 @@
 //! plan (node-centric gather, notes D §6.3 B): no atomics, and results are bitwise the same
 //! for any number of threads; (3) every node updates its velocity and displacement.
 //!
-//! **Energy balance** (tracked every step): kinetic `K`, elastic strain energy `U`,
-//! hourglass stored energy, foundation energy, the work `W` of the loads and of the
-//! prescribed displacements' reactions (trapezoidal rule over each step), and the work `D`
-//! dissipated by viscous hourglass control. `K + U + U_hg + U_f − W + D` stays at its
-//! initial value up to the method's error; the run loop watches it like a rigid scene's
-//! energy.
+//! **Plasticity**: a block whose material is plastic keeps the plastic strain and the
+//! equivalent plastic strain of every integration point (one array per quantity, point
+//! after point, built once) and evaluates its elements with
+//! [`crate::kernels::solid::respond_plastic`], which updates them by return mapping once
+//! per step; the choice is made per block, so elastic blocks have no state and run the
+//! elastic loop unchanged.
+//!
+//! **Energy balance** (tracked every step): kinetic `K`, elastic strain energy `U` (of the
+//! elastic strains), hourglass stored energy, foundation energy, the work `W` of the loads
+//! and of the prescribed displacements' reactions (trapezoidal rule over each step), the
+//! work `D` dissipated by viscous hourglass control, and the plastic work `D_p = Σ σ : Δεᵖ`
+//! (per integration point times its volume, `σ` the mean of its values at the ends of the
+//! step: the trapezoidal rule like `W`, which makes the elements' discrete balance exact).
+//! `K + U + U_hg + U_f − W + D + D_p` stays at its initial value up to the method's error;
+//! the run loop watches it like a rigid scene's energy.
+//!
+//! **Tied nodes** (`tie SET, BODY`, [`crate::analysis::tie_model`]): constrained in every
+//! component and massless here (their mass is their body's). [`MeshDynamics::step_tied`]
+//! takes their displacement and velocity at the step's end from their bodies (the
+//! half-step velocity of the rate terms is their displacement increment over h); the
+//! constraint's reaction on a tied node is then minus the mesh's net force on it
+//! ([`MeshDynamics::reactions`]), which the integrator hands to the body. The work of those
+//! reactions is kept apart (`tie_work`): it is what the bodies do on the mesh, and the
+//! bodies' energy already counts it.
 
 use std::sync::Arc;
 
 use rayon::prelude::*;
 
 use super::StepError;
-use crate::analysis::mesh_model::{elastic, element_place, options};
+use crate::analysis::mesh_model::{elastic, element_place, options, plastic};
+use crate::contract::mesh_layout::ElementBlock;
 use crate::contract::mesh_layout::MeshLayout;
 use crate::kernels::fn1;
-use crate::kernels::solid::{self, Elastic, ElementOptions, ElementResponse, MAX_NODES};
+use crate::kernels::solid::{
+    self, Elastic, ElementOptions, ElementResponse, Plastic, PlasticPoints, PlasticResponse,
+    MAX_NODES,
+};
 
 /// Elements below which the element loop runs on one thread.
 const PARALLEL_ELEMENTS: usize = 2048;
@@ -51,13 +73,60 @@ pub struct MeshEnergy {
     pub external_work: f64,
     /// Energy dissipated by viscous hourglass control since t = 0.
     pub dissipated: f64,
+    /// Plastic work `Σ σ : Δεᵖ` since t = 0 (J): the energy dissipated by plastic flow
+    /// (with the share that isotropic hardening accounts for).
+    pub plastic: f64,
+    /// Work done on the mesh by the bodies through ties since t = 0 (the tie reactions on
+    /// the tied nodes' displacements). The bodies lose what the mesh gains, so it is not in
+    /// [`MeshEnergy::balance_potential`]; it is in [`MeshEnergy::mesh_balance`].
+    pub tie_work: f64,
 }
 
 impl MeshEnergy {
     /// The part that is not kinetic, in the balance `K + (this) = const`:
-    /// `U + U_hg + U_f − W + D`.
+    /// `U + U_hg + U_f − W + D + D_p`.
     pub fn balance_potential(&self) -> f64 {
-        self.strain + self.hourglass + self.foundation - self.external_work + self.dissipated
+        self.strain + self.hourglass + self.foundation - self.external_work
+            + self.dissipated
+            + self.plastic
+    }
+
+    /// The meshes' own balance, constant up to the method's error:
+    /// `K + U + U_hg + U_f − W − W_tie + D + D_p` (with ties, the mesh alone is not conservative:
+    /// the bodies work on it through the ties).
+    pub fn mesh_balance(&self) -> f64 {
+        self.kinetic + self.balance_potential() - self.tie_work
+    }
+}
+
+/// The plastic state of one block's integration points, element after element (empty for
+/// an elastic block).
+#[derive(Debug, Default, PartialEq)]
+pub struct PlasticState {
+    /// Plastic strain per point (Voigt xx yy zz yz xz xy, tensor shears; bars: the axial
+    /// one in xx).
+    pub strain: Vec<[f64; 6]>,
+    /// Equivalent plastic strain `ε̄ᵖ` per point.
+    pub equivalent: Vec<f64>,
+    /// Stress per point at the end of the last step (Voigt; bars: the axial one in xx), for
+    /// the trapezoidal plastic work of the next.
+    pub stress: Vec<[f64; 6]>,
+}
+
+impl Clone for PlasticState {
+    fn clone(&self) -> Self {
+        PlasticState {
+            strain: self.strain.clone(),
+            equivalent: self.equivalent.clone(),
+            stress: self.stress.clone(),
+        }
+    }
+    /// Field by field, reusing the buffers (the derived `clone_from` would allocate anew:
+    /// the state is copied every step).
+    fn clone_from(&mut self, source: &Self) {
+        self.strain.clone_from(&source.strain);
+        self.equivalent.clone_from(&source.equivalent);
+        self.stress.clone_from(&source.stress);
     }
 }
 
@@ -72,6 +141,14 @@ pub struct MeshState {
     pub stress: Vec<[f64; 6]>,
     /// Element mean strain (same order, tensor shear).
     pub strain: Vec<[f64; 6]>,
+    /// Element mean plastic strain (same order; bars: the axial one in xx), element after
+    /// element, 0 for the elements of elastic meshes; empty when no mesh is plastic.
+    pub plastic_strain: Vec<[f64; 6]>,
+    /// Element mean equivalent plastic strain, like `plastic_strain`.
+    pub equivalent_plastic_strain: Vec<f64>,
+    /// The integration points' plastic state, one entry per mesh (empty for elastic
+    /// meshes; no entries when no mesh is plastic): what a restart continues from.
+    pub plastic: Vec<PlasticState>,
     /// The energies.
     pub energy: MeshEnergy,
 }
@@ -87,6 +164,10 @@ impl MeshState {
 struct BlockEval {
     opts: ElementOptions,
     mat: Elastic,
+    /// The plastic constants (`None`: an elastic block).
+    plastic: Option<Plastic>,
+    /// Integration points per element.
+    points: usize,
 }
 
 /// What one element leaves for the reductions.
@@ -120,7 +201,16 @@ pub struct MeshDynamics {
     stress: Vec<[f64; 6]>,
     strain: Vec<[f64; 6]>,
     scalars: Vec<ElementScalars>,
+    /// Per block: the integration points' plastic state (empty for elastic blocks).
+    plastic: Vec<PlasticState>,
+    /// Per block: each element's plastic means and work of the last evaluation (empty for
+    /// elastic blocks).
+    plastic_out: Vec<Vec<PlasticResponse>>,
     energy: MeshEnergy,
+    /// The tied nodes, tie after tie (the order of [`MeshDynamics::step_tied`]'s targets).
+    tied: Vec<u32>,
+    /// Per node: whether it is tied.
+    is_tied: Vec<bool>,
 }
 
 impl MeshDynamics {
@@ -137,14 +227,65 @@ impl MeshDynamics {
     ) -> Result<MeshDynamics, StepError> {
         let n = layout.nodes();
         let ne = layout.elements();
-        let evals = layout
+        let evals: Vec<BlockEval> = layout
             .blocks
             .iter()
-            .map(|b| BlockEval {
-                opts: options(b),
-                mat: elastic(&b.material),
+            .map(|b| {
+                let opts = options(b);
+                BlockEval {
+                    points: solid::integration_points(b.kind, &opts),
+                    opts,
+                    mat: elastic(&b.material),
+                    plastic: plastic(&b.material),
+                }
             })
             .collect();
+        // The plastic state: the start's when it fits the blocks, else virgin.
+        let fresh: Vec<PlasticState> = layout
+            .blocks
+            .iter()
+            .zip(&evals)
+            .map(|(b, ev)| match ev.plastic {
+                Some(_) => PlasticState {
+                    strain: vec![[0.0; 6]; b.elements() * ev.points],
+                    equivalent: vec![0.0; b.elements() * ev.points],
+                    stress: vec![[0.0; 6]; b.elements() * ev.points],
+                },
+                None => PlasticState::default(),
+            })
+            .collect();
+        let fits = start.plastic.len() == fresh.len()
+            && start.plastic.iter().zip(&fresh).all(|(a, b)| {
+                a.strain.len() == b.strain.len()
+                    && a.equivalent.len() == b.equivalent.len()
+                    && a.stress.len() == b.stress.len()
+            });
+        let any_plastic = evals.iter().any(|e| e.plastic.is_some());
+        let plastic = if !any_plastic {
+            Vec::new()
+        } else if fits && start.u.len() == n {
+            start.plastic.clone()
+        } else {
+            fresh
+        };
+        let plastic_out = layout
+            .blocks
+            .iter()
+            .zip(&evals)
+            .map(|(b, ev)| match ev.plastic {
+                Some(_) => vec![PlasticResponse::default(); b.elements()],
+                None => Vec::new(),
+            })
+            .collect();
+        let tied: Vec<u32> = layout
+            .ties
+            .iter()
+            .flat_map(|t| t.nodes.iter().copied())
+            .collect();
+        let mut is_tied = vec![false; n];
+        for &t in &tied {
+            is_tied[t as usize] = true;
+        }
         let (u, v) = if start.u.len() == n && start.v.len() == n {
             (start.u.clone(), start.v.clone())
         } else {
@@ -165,15 +306,20 @@ impl MeshDynamics {
             stress: vec![[0.0; 6]; ne],
             strain: vec![[0.0; 6]; ne],
             scalars: vec![ElementScalars::default(); ne],
+            plastic,
+            plastic_out,
             energy: if start.u.len() == n {
                 start.energy
             } else {
                 MeshEnergy::default()
             },
             layout,
+            tied,
+            is_tied,
         };
         md.prescribe(t0);
         md.accelerations(t0)?;
+        md.energy.plastic += md.plastic_work();
         md.energy_state();
         Ok(md)
     }
@@ -183,12 +329,37 @@ impl MeshDynamics {
         self.t
     }
 
-    /// Advance one step.
+    /// Advance one step (nothing tied: see [`MeshDynamics::step_tied`]).
     ///
     /// # Errors
     /// An element that inverts (its Jacobian determinant reaches zero) or a non-finite
     /// force: the element, its nodes and location.
     pub fn step(&mut self) -> Result<(), StepError> {
+        self.step_tied(&[], &[])
+    }
+
+    /// Advance one step with the tied nodes' displacement `tied_u` and velocity `tied_v` at
+    /// the step's end, one per tied node in the order of the layout's `ties` (their bodies'
+    /// motion). Empty slices leave tied nodes drifting with their last velocity.
+    ///
+    /// # Errors
+    /// As [`MeshDynamics::step`]; targets for a different number of tied nodes.
+    pub fn step_tied(&mut self, tied_u: &[[f64; 3]], tied_v: &[[f64; 3]]) -> Result<(), StepError> {
+        if !tied_u.is_empty() && (tied_u.len() != self.tied.len() || tied_v.len() != tied_u.len()) {
+            return Err(StepError::Mesh {
+                mesh: self
+                    .layout
+                    .ties
+                    .first()
+                    .map_or_else(String::new, |t| t.mesh.clone()),
+                place: "its ties".into(),
+                message: format!(
+                    "{} tied nodes, but motions for {} were given",
+                    self.tied.len(),
+                    tied_u.len()
+                ),
+            });
+        }
         let h = self.h;
         let t1 = self.t + h;
         for (((v, a), u), du) in self
@@ -212,11 +383,23 @@ impl MeshDynamics {
             self.u[n][k] = j.v;
             self.a[n][k] = j.d2;
         }
+        // Tied nodes where their bodies put them; their half-step velocity (for rate terms)
+        // is the increment over the step.
+        for (&n, ut) in self.tied.iter().zip(tied_u) {
+            let n = n as usize;
+            for k in 0..3 {
+                let old = self.u[n][k] - self.du[n][k];
+                self.du[n][k] = ut[k] - old;
+                self.u[n][k] = ut[k];
+                self.v[n][k] = self.du[n][k] / h;
+                self.a[n][k] = 0.0;
+            }
+        }
         // The work of the loads and reactions over the step, trapezoidal: forces at tⁿ
         // (still stored) and at t^{n+1}, both on the step's displacement increment.
-        let w0 = self.work_rate();
+        let (w0, tw0) = self.work_rate();
         self.accelerations(t1)?;
-        let w1 = self.work_rate();
+        let (w1, tw1) = self.work_rate();
         for (v, a) in self.v.iter_mut().zip(&self.a) {
             for k in 0..3 {
                 v[k] += 0.5 * h * a[k];
@@ -225,28 +408,64 @@ impl MeshDynamics {
         for p in &self.layout.prescribed {
             self.v[p.node as usize][p.dof as usize] = fn1::eval(&p.value, t1).d1;
         }
+        for (&n, vt) in self.tied.iter().zip(tied_v) {
+            self.v[n as usize] = *vt;
+        }
         self.t = t1;
         self.energy.external_work += 0.5 * (w0 + w1);
+        self.energy.tie_work += 0.5 * (tw0 + tw1);
         self.energy.dissipated += h * self.scalars.iter().map(|s| s.hourglass_power).sum::<f64>();
+        self.energy.plastic += self.plastic_work();
         self.energy_state();
         Ok(())
     }
 
-    /// `Σ (f_ext + reaction) · Δu` over the nodes, with the forces now stored.
-    fn work_rate(&self) -> f64 {
-        self.f_ext
+    /// The plastic work of the last element evaluation, summed in element order.
+    fn plastic_work(&self) -> f64 {
+        self.plastic_out
             .iter()
-            .zip(&self.reaction)
-            .zip(&self.du)
-            .map(|((f, r), d)| (f[0] + r[0]) * d[0] + (f[1] + r[1]) * d[1] + (f[2] + r[2]) * d[2])
+            .flat_map(|b| b.iter().map(|r| r.work))
             .sum()
     }
 
+    /// `Σ (f_ext + reaction) · Δu` over the nodes, with the forces now stored, and apart
+    /// the tied nodes' reactions' part, `Σ_tied reaction · Δu`.
+    fn work_rate(&self) -> (f64, f64) {
+        let (mut w, mut tie) = (0.0, 0.0);
+        for (((f, r), d), &tied) in self
+            .f_ext
+            .iter()
+            .zip(&self.reaction)
+            .zip(&self.du)
+            .zip(&self.is_tied)
+        {
+            if tied {
+                w += f[0] * d[0] + f[1] * d[1] + f[2] * d[2];
+                tie += r[0] * d[0] + r[1] * d[1] + r[2] * d[2];
+            } else {
+                w += (f[0] + r[0]) * d[0] + (f[1] + r[1]) * d[1] + (f[2] + r[2]) * d[2];
+            }
+        }
+        (w, tie)
+    }
+
+    /// Per node, the force the constraints supply at the current state (N, world): on a
+    /// fixed or prescribed component the support's reaction; on a tied node minus the
+    /// mesh's net force on it (external, foundation and element forces: the node's mass is
+    /// its body's), so the tie hands `−reactions()[n]` to the body.
+    pub fn reactions(&self) -> &[[f64; 3]] {
+        &self.reaction
+    }
+
     /// Set the prescribed components at `t` (displacement, velocity, acceleration) and
-    /// zero the fixed ones.
+    /// zero the fixed ones (tied nodes keep the motion they start with: their bodies').
     fn prescribe(&mut self, t: f64) {
         let l = &self.layout;
         for (n, c) in l.constrained.iter().enumerate() {
+            if self.is_tied[n] {
+                self.a[n] = [0.0; 3];
+                continue;
+            }
             for k in 0..3 {
                 if c[k] {
                     self.u[n][k] = 0.0;
@@ -308,57 +527,64 @@ impl MeshDynamics {
             let stress = &mut self.stress[e0..e0 + ne];
             let strain = &mut self.strain[e0..e0 + ne];
             let scalars = &mut self.scalars[e0..e0 + ne];
-            let one = |e: usize,
-                       fs: &mut [[f64; 3]],
-                       st: &mut [f64; 6],
-                       sn: &mut [f64; 6],
-                       sc: &mut ElementScalars| {
-                let mut x0 = [[0.0; 3]; MAX_NODES];
-                let mut ue = [[0.0; 3]; MAX_NODES];
-                let mut ve = [[0.0; 3]; MAX_NODES];
-                for (a, &g) in b.element_nodes(e).iter().enumerate() {
-                    x0[a] = l.x0[g as usize];
-                    ue[a] = u[g as usize];
-                    ve[a] = v[g as usize];
-                }
-                let mut r = ElementResponse::default();
-                solid::respond(
-                    b.kind,
-                    &ev.opts,
-                    &ev.mat,
-                    &x0[..npe],
-                    &ue[..npe],
-                    &ve[..npe],
-                    &mut r,
+            if let Some(law) = &ev.plastic {
+                let (ps, pout) = (&mut self.plastic[bi], &mut self.plastic_out[bi]);
+                plastic_block(
+                    l,
+                    b,
+                    ev,
+                    law,
+                    (u, v),
+                    ps,
+                    pout,
+                    (slots, stress, strain, scalars),
                 );
-                fs.copy_from_slice(&r.f[..npe]);
-                *st = r.stress;
-                *sn = r.strain;
-                *sc = ElementScalars {
-                    strain_energy: r.strain_energy,
-                    hourglass_energy: r.hourglass_energy,
-                    hourglass_power: r.hourglass_power,
-                    min_jacobian: r.min_jacobian,
-                };
-            };
-            if ne >= PARALLEL_ELEMENTS {
-                slots
-                    .par_chunks_mut(npe)
-                    .zip(stress.par_iter_mut())
-                    .zip(strain.par_iter_mut())
-                    .zip(scalars.par_iter_mut())
-                    .enumerate()
-                    .with_min_len(256)
-                    .for_each(|(e, (((fs, st), sn), sc))| one(e, fs, st, sn, sc));
             } else {
-                for (e, (((fs, st), sn), sc)) in slots
-                    .chunks_mut(npe)
-                    .zip(stress.iter_mut())
-                    .zip(strain.iter_mut())
-                    .zip(scalars.iter_mut())
-                    .enumerate()
-                {
-                    one(e, fs, st, sn, sc);
+                let one = |e: usize,
+                           fs: &mut [[f64; 3]],
+                           st: &mut [f64; 6],
+                           sn: &mut [f64; 6],
+                           sc: &mut ElementScalars| {
+                    let (x0, ue, ve) = gather_element(l, b, e, u, v);
+                    let mut r = ElementResponse::default();
+                    solid::respond(
+                        b.kind,
+                        &ev.opts,
+                        &ev.mat,
+                        &x0[..npe],
+                        &ue[..npe],
+                        &ve[..npe],
+                        &mut r,
+                    );
+                    fs.copy_from_slice(&r.f[..npe]);
+                    *st = r.stress;
+                    *sn = r.strain;
+                    *sc = ElementScalars {
+                        strain_energy: r.strain_energy,
+                        hourglass_energy: r.hourglass_energy,
+                        hourglass_power: r.hourglass_power,
+                        min_jacobian: r.min_jacobian,
+                    };
+                };
+                if ne >= PARALLEL_ELEMENTS {
+                    slots
+                        .par_chunks_mut(npe)
+                        .zip(stress.par_iter_mut())
+                        .zip(strain.par_iter_mut())
+                        .zip(scalars.par_iter_mut())
+                        .enumerate()
+                        .with_min_len(256)
+                        .for_each(|(e, (((fs, st), sn), sc))| one(e, fs, st, sn, sc));
+                } else {
+                    for (e, (((fs, st), sn), sc)) in slots
+                        .chunks_mut(npe)
+                        .zip(stress.iter_mut())
+                        .zip(strain.iter_mut())
+                        .zip(scalars.iter_mut())
+                        .enumerate()
+                    {
+                        one(e, fs, st, sn, sc);
+                    }
                 }
             }
             // An inverted element stops the run where it happened.
@@ -470,6 +696,155 @@ impl MeshDynamics {
         out.v.clone_from(&self.v);
         out.stress.clone_from(&self.stress);
         out.strain.clone_from(&self.strain);
+        out.plastic.clone_from(&self.plastic);
+        if self.plastic.is_empty() {
+            out.plastic_strain.clear();
+            out.equivalent_plastic_strain.clear();
+        } else {
+            let ne = self.stress.len();
+            out.plastic_strain.resize(ne, [0.0; 6]);
+            out.equivalent_plastic_strain.resize(ne, 0.0);
+            for (b, po) in self.layout.blocks.iter().zip(&self.plastic_out) {
+                let e0 = b.first_element;
+                for (k, r) in po.iter().enumerate() {
+                    out.plastic_strain[e0 + k] = r.strain;
+                    out.equivalent_plastic_strain[e0 + k] = r.equivalent;
+                }
+            }
+        }
         out.energy = self.energy;
+    }
+}
+
+/// The reference coordinates, displacements and velocities of element `e`'s nodes.
+#[inline]
+fn gather_element(
+    l: &MeshLayout,
+    b: &ElementBlock,
+    e: usize,
+    u: &[[f64; 3]],
+    v: &[[f64; 3]],
+) -> (
+    [[f64; 3]; MAX_NODES],
+    [[f64; 3]; MAX_NODES],
+    [[f64; 3]; MAX_NODES],
+) {
+    let mut x0 = [[0.0; 3]; MAX_NODES];
+    let mut ue = [[0.0; 3]; MAX_NODES];
+    let mut ve = [[0.0; 3]; MAX_NODES];
+    for (a, &g) in b.element_nodes(e).iter().enumerate() {
+        x0[a] = l.x0[g as usize];
+        ue[a] = u[g as usize];
+        ve[a] = v[g as usize];
+    }
+    (x0, ue, ve)
+}
+
+/// The per-element outputs of one block: force slots, stress, strain, scalars.
+type BlockOut<'a> = (
+    &'a mut [[f64; 3]],
+    &'a mut [[f64; 6]],
+    &'a mut [[f64; 6]],
+    &'a mut [ElementScalars],
+);
+
+/// The element loop of an elastoplastic block: every element evaluates
+/// [`solid::respond_plastic`] with its points' slice of the block's plastic state (updated
+/// in place) and leaves its plastic means and work in `pout`. Parallel like the elastic
+/// loop; each element writes only its own slots and state, so results do not depend on the
+/// number of threads.
+#[allow(clippy::too_many_arguments)] // the block, its constants, state and outputs
+fn plastic_block(
+    l: &MeshLayout,
+    b: &ElementBlock,
+    ev: &BlockEval,
+    law: &Plastic,
+    (u, v): (&[[f64; 3]], &[[f64; 3]]),
+    ps: &mut PlasticState,
+    pout: &mut [PlasticResponse],
+    (slots, stress, strain, scalars): BlockOut<'_>,
+) {
+    let npe = b.kind.nodes();
+    let np = ev.points;
+    let one = |e: usize,
+               fs: &mut [[f64; 3]],
+               st: &mut [f64; 6],
+               sn: &mut [f64; 6],
+               sc: &mut ElementScalars,
+               po: &mut PlasticResponse,
+               points: PlasticPoints<'_>| {
+        let (x0, ue, ve) = gather_element(l, b, e, u, v);
+        let mut r = ElementResponse::default();
+        *po = solid::respond_plastic(
+            b.kind,
+            &ev.opts,
+            &ev.mat,
+            law,
+            &x0[..npe],
+            &ue[..npe],
+            &ve[..npe],
+            points,
+            &mut r,
+        );
+        fs.copy_from_slice(&r.f[..npe]);
+        *st = r.stress;
+        *sn = r.strain;
+        *sc = ElementScalars {
+            strain_energy: r.strain_energy,
+            hourglass_energy: r.hourglass_energy,
+            hourglass_power: r.hourglass_power,
+            min_jacobian: r.min_jacobian,
+        };
+    };
+    let PlasticState {
+        strain: ep_all,
+        equivalent: eq_all,
+        stress: s_all,
+    } = ps;
+    if b.elements() >= PARALLEL_ELEMENTS {
+        slots
+            .par_chunks_mut(npe)
+            .zip(stress.par_iter_mut())
+            .zip(strain.par_iter_mut())
+            .zip(scalars.par_iter_mut())
+            .zip(pout.par_iter_mut())
+            .zip(
+                ep_all
+                    .par_chunks_mut(np)
+                    .zip(eq_all.par_chunks_mut(np))
+                    .zip(s_all.par_chunks_mut(np)),
+            )
+            .enumerate()
+            .with_min_len(256)
+            .for_each(|(e, (((((fs, st), sn), sc), po), ((pst, peq), pss)))| {
+                let points = PlasticPoints {
+                    strain: pst,
+                    equivalent: peq,
+                    stress: pss,
+                };
+                one(e, fs, st, sn, sc, po, points)
+            });
+    } else {
+        for (e, (((((fs, st), sn), sc), po), ((pst, peq), pss))) in slots
+            .chunks_mut(npe)
+            .zip(stress.iter_mut())
+            .zip(strain.iter_mut())
+            .zip(scalars.iter_mut())
+            .zip(pout.iter_mut())
+            .zip(
+                ep_all
+                    .chunks_mut(np)
+                    .zip(eq_all.chunks_mut(np))
+                    .zip(s_all.chunks_mut(np)),
+            )
+            .enumerate()
+        {
+            let points = PlasticPoints {
+                strain: pst,
+                equivalent: peq,
+                stress: pss,
+            };
+            one(e, fs, st, sn, sc, po, points);
+        }
     }
 }

@@ -8,6 +8,9 @@
 //! | `staggered`, `baumgarte`, `penalty` | [`staggered`] | two-stage CINT with three constraint-force modules, notes A §1.4–1.9, C §3 |
 //! | `natural_partitioning` | [`natural`] | tree null space, Schur-complement PCG, cut joints by staggered stabilization, notes C §1 |
 //!
+//! Finite-element meshes ([`mesh_dynamics`]) are advanced beside them with the same step,
+//! and node sets tied to bodies couple the two in the staggered scheme ([`mesh_ties`]).
+//!
 //! All integrators are generic over the system, so generated code is monomorphized
 //! into them, and none allocates inside [`Integrator::step`].
 
@@ -17,6 +20,7 @@
 pub mod beam_forces;
 pub mod common;
 pub mod mesh_dynamics;
+pub mod mesh_ties;
 pub mod natural;
 pub mod partitioning;
 pub mod staggered;
@@ -24,8 +28,8 @@ pub mod staggered;
 pub(crate) mod testsys;
 pub mod trapezoid;
 
-use crate::contract::system::{Pose, System, Twist};
-pub use mesh_dynamics::{MeshEnergy, MeshState};
+use crate::contract::system::{Pose, System, Twist, Wrench};
+pub use mesh_dynamics::{MeshEnergy, MeshState, PlasticState};
 
 /// The synchronized state at a step time.
 #[derive(Clone, Debug, Default)]
@@ -50,10 +54,11 @@ pub struct State {
 
 impl State {
     /// The energy of the flexible parts beside the bodies' kinetic and potential energy
-    /// (J): the beams' strain energy, and the meshes' kinetic energy and their
-    /// [`MeshEnergy::balance_potential`] (strain, hourglass and foundation energy, less the
-    /// work of loads and prescribed displacements, plus what hourglass control dissipated),
-    /// so that the total stays constant in a run.
+    /// (J): the beams' strain energy, and the meshes' [`MeshEnergy::balance_potential`]
+    /// (strain, hourglass and foundation energy, less the work of loads and prescribed
+    /// displacements, plus what hourglass control dissipated; not the work of ties, which
+    /// the bodies' energy already counts), so that with the kinetic energies the total
+    /// stays constant in a run.
     pub fn strain_energy(&self) -> f64 {
         beam_forces::total_strain_energy(&self.beams) + self.mesh.energy.balance_potential()
     }
@@ -78,12 +83,15 @@ impl State {
         }
     }
 
-    /// The system's initial state at t = 0.
+    /// The system's initial state at t = 0. With tied meshes, the meshes' state too
+    /// (undeformed, at rest, the tied nodes moving with their bodies); without, the meshes
+    /// start at rest from an empty state.
     pub fn initial<S: System + ?Sized>(sys: &S) -> State {
         let layout = sys.layout();
         let mut s = State::new(layout.bodies(), layout.rows);
         sys.initial_state(&mut s.pose, &mut s.twist);
         s.active = common::initial_activity(layout);
+        s.mesh = mesh_ties::initial_mesh_state(layout, &s.pose, &s.twist);
         s
     }
 }
@@ -158,76 +166,165 @@ pub fn make<'a, S: System + 'a>(
         }
     }
     let meshes = sys.layout().meshes.clone();
-    let rigid = sys.layout().bodies() > 0 || sys.layout().rows > 0;
-    let inner: Option<Box<dyn Integrator<S> + 'a>> = if !rigid {
-        None
-    } else {
-        Some(match method {
-            M::Staggered(o) => Box::new(staggered::TwoStage::staggered(sys, h, o, start)?),
-            M::Baumgarte { alpha, beta } => Box::new(staggered::TwoStage::baumgarte(
-                sys, h, *alpha, *beta, start,
-            )?),
-            M::Penalty { epsilon } => {
-                Box::new(staggered::TwoStage::penalty(sys, h, *epsilon, start)?)
-            }
-            M::CoordinatePartitioning => Box::new(partitioning::Partitioning::new(sys, h, start)?),
-            M::ImplicitTrapezoid {
-                tolerance,
-                max_iterations,
-            } => Box::new(trapezoid::Trapezoid::new(
-                sys,
-                h,
-                *tolerance,
-                *max_iterations,
-                start,
-            )?),
-            M::NaturalPartitioning {
-                epsilon,
-                tolerance,
-                max_iterations,
-            } => Box::new(
-                natural::Natural::new(sys, h, *epsilon, *tolerance, start)?
-                    .with_pcg_limit(*max_iterations),
-            ),
-            M::StateTime { .. } => return Err(StartError::Unsupported(method.name())),
-        })
-    };
     if meshes.is_empty() {
-        return inner.ok_or_else(|| {
-            StartError::Invalid("the scene has nothing to simulate (no body, beam or mesh)".into())
-        });
+        return match rigid(method, sys, h, start)? {
+            Some(r) => Ok(Box::new(r)),
+            None => Err(StartError::Invalid(
+                "the scene has nothing to simulate (no body, beam or mesh)".into(),
+            )),
+        };
     }
     if matches!(method, M::StateTime { .. }) {
         return Err(StartError::Unsupported(method.name()));
     }
+    if let Some(why) = mesh_ties::refusal(&meshes, sys.layout(), method) {
+        return Err(StartError::Invalid(why));
+    }
     if let Some(c) = crate::analysis::mesh_model::critical_step(&meshes) {
         if h > c.step {
             return Err(StartError::Invalid(format!(
-                "mesh '{}': the step {h:.3e} s is above the central-difference limit {:.3e} s = 2/ω_max of its stiffest element, {} (ω_max ≤ {:.4e} rad/s); reduce the step below it (a step of 0.9× the limit leaves a margin)",
-                c.mesh, c.step, c.place, c.omega
+                "mesh '{}': the step {h:.3e} s is above the central-difference limit {:.3e} s = 2/ω_max of its stiffest element, {} (ω_max ≤ {:.4e} rad/s){}; reduce the step below it (a step of 0.9× the limit leaves a margin)",
+                c.mesh, c.step, c.place, c.omega,
+                if meshes.ties.is_empty() { "" } else { ", which bounds the tied system too" }
             )));
         }
     }
-    let mesh = mesh_dynamics::MeshDynamics::new(meshes, h, start.t, &start.mesh)?;
+    // The meshes first: their forces at the start give the ties' first wrench, which the
+    // rigid method's start (consistent λ⁰, accelerations) must see.
+    let mut coupler = mesh_ties::Coupler::new(sys.layout());
+    let mesh_start = match (&coupler, start.mesh.is_empty()) {
+        (Some(_), true) => mesh_ties::initial_mesh_state(sys.layout(), &start.pose, &start.twist),
+        _ => start.mesh.clone(),
+    };
+    let mesh = mesh_dynamics::MeshDynamics::new(meshes.clone(), h, start.t, &mesh_start)?;
+    if let Some(c) = &mut coupler {
+        mesh_ties::wrenches(&meshes, &start.pose, mesh.reactions(), &mut c.wrench);
+        c.wrench_prev.copy_from_slice(&c.wrench);
+    }
+    let wrench: &[Wrench] = coupler.as_ref().map_or(&[], |c| &c.wrench);
+    let inner = rigid(method, &mesh_ties::Tied { sys, wrench }, h, start)?;
     Ok(Box::new(WithMeshes {
         inner,
         mesh,
+        coupler,
         name: method.name(),
         h,
     }))
 }
 
+/// The rigid (and beam) integrator of `method` on `sys`, `None` for a system without
+/// bodies and joints (a scene of meshes alone).
+fn rigid<T: System>(
+    method: &crate::contract::scene::MethodSpec,
+    sys: &T,
+    h: f64,
+    start: &State,
+) -> Result<Option<Rigid>, StartError> {
+    use crate::contract::scene::MethodSpec as M;
+    let rigid = sys.layout().bodies() > 0 || sys.layout().rows > 0;
+    if !rigid {
+        return Ok(None);
+    }
+    Ok(Some(match method {
+        M::Staggered(o) => Rigid::TwoStage(staggered::TwoStage::staggered(sys, h, o, start)?),
+        M::Baumgarte { alpha, beta } => Rigid::TwoStage(staggered::TwoStage::baumgarte(
+            sys, h, *alpha, *beta, start,
+        )?),
+        M::Penalty { epsilon } => {
+            Rigid::TwoStage(staggered::TwoStage::penalty(sys, h, *epsilon, start)?)
+        }
+        M::CoordinatePartitioning => {
+            Rigid::Partitioning(partitioning::Partitioning::new(sys, h, start)?)
+        }
+        M::ImplicitTrapezoid {
+            tolerance,
+            max_iterations,
+        } => Rigid::Trapezoid(trapezoid::Trapezoid::new(
+            sys,
+            h,
+            *tolerance,
+            *max_iterations,
+            start,
+        )?),
+        M::NaturalPartitioning {
+            epsilon,
+            tolerance,
+            max_iterations,
+        } => Rigid::Natural(
+            natural::Natural::new(sys, h, *epsilon, *tolerance, start)?
+                .with_pcg_limit(*max_iterations),
+        ),
+        M::StateTime { .. } => return Err(StartError::Unsupported(method.name())),
+    }))
+}
+
+/// One of the rigid (and beam) integrators. None of them depends on the system's type,
+/// so one value advances a system and the same system with ties ([`mesh_ties::Tied`]).
+// One value per run: the variants' sizes do not matter.
+#[allow(clippy::large_enum_variant)]
+enum Rigid {
+    TwoStage(staggered::TwoStage),
+    Partitioning(partitioning::Partitioning),
+    Trapezoid(trapezoid::Trapezoid),
+    Natural(natural::Natural),
+}
+
+/// `$call` on the integrator inside a [`Rigid`].
+macro_rules! each {
+    ($r:expr, $i:ident => $call:expr) => {
+        match $r {
+            Rigid::TwoStage($i) => $call,
+            Rigid::Partitioning($i) => $call,
+            Rigid::Trapezoid($i) => $call,
+            Rigid::Natural($i) => $call,
+        }
+    };
+}
+
+impl<S: System> Integrator<S> for Rigid {
+    fn name(&self) -> &'static str {
+        each!(self, i => Integrator::<S>::name(i))
+    }
+    fn time(&self) -> f64 {
+        each!(self, i => Integrator::<S>::time(i))
+    }
+    fn step_size(&self) -> f64 {
+        each!(self, i => Integrator::<S>::step_size(i))
+    }
+    fn step(&mut self, sys: &S) -> Result<StepInfo, StepError> {
+        each!(self, i => i.step(sys))
+    }
+    fn state(&self, sys: &S, out: &mut State) {
+        each!(self, i => i.state(sys, out))
+    }
+    fn active(&self) -> &[bool] {
+        each!(self, i => Integrator::<S>::active(i))
+    }
+    fn stats(&self) -> Vec<(&'static str, f64)> {
+        each!(self, i => Integrator::<S>::stats(i))
+    }
+    fn take_notice(&mut self) -> Option<String> {
+        each!(self, i => Integrator::<S>::take_notice(i))
+    }
+    fn end_notice(&self) -> Option<String> {
+        each!(self, i => Integrator::<S>::end_notice(i))
+    }
+}
+
 /// A rigid (and beam) integrator, if the scene has bodies, and the meshes' explicit
-/// integrator, stepped together with the same step. The meshes are not coupled to the
-/// bodies (a scene that ties them is refused by the compiler until ties land).
-struct WithMeshes<'a, S: System> {
-    inner: Option<Box<dyn Integrator<S> + 'a>>,
+/// integrator, stepped together with the same step. Tied node sets couple them
+/// ([`mesh_ties`]): each step the rigid method advances the bodies with the ties' wrench of
+/// the mesh's current state, then the mesh steps with its tied nodes where the bodies now
+/// are. Without ties the wrench is empty and the two run side by side.
+struct WithMeshes {
+    inner: Option<Rigid>,
     mesh: mesh_dynamics::MeshDynamics,
+    coupler: Option<mesh_ties::Coupler>,
     name: &'static str,
     h: f64,
 }
 
-impl<S: System> Integrator<S> for WithMeshes<'_, S> {
+impl<S: System> Integrator<S> for WithMeshes {
     fn name(&self) -> &'static str {
         self.name
     }
@@ -238,32 +335,56 @@ impl<S: System> Integrator<S> for WithMeshes<'_, S> {
         self.h
     }
     fn step(&mut self, sys: &S) -> Result<StepInfo, StepError> {
+        let wrench: &[Wrench] = self.coupler.as_ref().map_or(&[], |c| &c.wrench);
+        let tied = mesh_ties::Tied { sys, wrench };
         let info = match &mut self.inner {
-            Some(i) => i.step(sys)?,
+            Some(i) => i.step(&tied)?,
             None => StepInfo::default(),
         };
-        self.mesh.step()?;
+        match (&mut self.coupler, &self.inner) {
+            (Some(c), Some(i)) => {
+                // the bodies at the step's end carry the tied nodes there
+                i.state(&mesh_ties::Tied { sys, wrench: &[] }, &mut c.state);
+                let meshes = &sys.layout().meshes;
+                c.place_at_state(meshes)?;
+                self.mesh.step_tied(&c.u, &c.v)?;
+                c.wrenches_at_state(meshes, self.mesh.reactions());
+            }
+            _ => self.mesh.step()?,
+        }
         Ok(info)
     }
     fn state(&self, sys: &S, out: &mut State) {
         if let Some(i) = &self.inner {
-            i.state(sys, out);
+            let wrench: &[Wrench] = self.coupler.as_ref().map_or(&[], |c| &c.wrench);
+            i.state(&mesh_ties::Tied { sys, wrench }, out);
         } else {
             out.t = self.mesh.time();
         }
         self.mesh.state(&mut out.mesh);
+        if let Some(c) = &self.coupler {
+            c.synchronize(sys.layout(), self.h, out);
+        }
     }
     fn active(&self) -> &[bool] {
-        self.inner.as_ref().map_or(&[], |i| i.active())
+        self.inner
+            .as_ref()
+            .map_or(&[], |i| Integrator::<S>::active(i))
     }
     fn stats(&self) -> Vec<(&'static str, f64)> {
-        self.inner.as_ref().map_or_else(Vec::new, |i| i.stats())
+        self.inner
+            .as_ref()
+            .map_or_else(Vec::new, |i| Integrator::<S>::stats(i))
     }
     fn take_notice(&mut self) -> Option<String> {
-        self.inner.as_mut().and_then(|i| i.take_notice())
+        self.inner
+            .as_mut()
+            .and_then(|i| Integrator::<S>::take_notice(i))
     }
     fn end_notice(&self) -> Option<String> {
-        self.inner.as_ref().and_then(|i| i.end_notice())
+        self.inner
+            .as_ref()
+            .and_then(|i| Integrator::<S>::end_notice(i))
     }
 }
 

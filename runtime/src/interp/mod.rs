@@ -30,12 +30,14 @@
 //! ([`crate::analysis::beam_model`]); the element forces are the integrator's.
 //!
 //! Finite-element meshes: flattened by [`crate::analysis::mesh_model`] into the layout's
-//! `meshes`; their nodes are not bodies, the integrator advances them.
+//! `meshes`; their nodes are not bodies, the integrator advances them. A body that carries
+//! tied mesh nodes (`tie SET, BODY`) is built as the body with those nodes' inertia, its
+//! reference point at their joint mass centre ([`crate::analysis::tie_model`]).
 //!
 //! Not simulated (clear errors from [`Interp::new`]): box–box, sphere–box and plane–plane
 //! contact, bodies with singular or indefinite inertia.
 
-use crate::analysis::{beam_model, input_limits, mesh_model};
+use crate::analysis::{beam_model, input_limits, mesh_model, tie_model};
 use crate::contract::math::{quat, rotation, vec3};
 use crate::contract::scene::{
     Attachment, BodyRef, Fn1, ForceFrame, ForceKind, JointKind, Scene, Shape,
@@ -358,10 +360,14 @@ impl Interp {
     /// the scene's bodies, their clamps and pins its joints, and the [`Layout`]'s `beams`
     /// lists the elements, whose forces the integrator adds.
     pub fn new(scene: &Scene) -> Result<Interp, InterpError> {
-        let meshes = mesh_model::build(&scene.meshes).map_err(|e| InterpError::Mesh {
+        let mesh_err = |e: mesh_model::MeshError| InterpError::Mesh {
             name: e.mesh,
             reason: e.reason,
-        })?;
+        };
+        let mut meshes = mesh_model::build(&scene.meshes).map_err(mesh_err)?;
+        // Bodies that carry tied mesh nodes become the bodies with those nodes' inertia.
+        let composite = tie_model::apply(scene, &mut meshes).map_err(mesh_err)?;
+        let scene = composite.as_ref().unwrap_or(scene);
         let meshes = std::sync::Arc::new(meshes);
         if scene.beams.is_empty() {
             return Interp::build(scene, BeamLayout::default(), meshes);

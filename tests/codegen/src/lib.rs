@@ -36,9 +36,17 @@ impl Observer for Keep {
         v.extend(&s.lambda);
         v.extend(f.violation);
         v.extend(f.velocity_violation);
-        // meshes: every node's displacement and velocity, every element's stress
+        // meshes: every node's displacement and velocity, every element's stress, and with
+        // plasticity every element's plastic strains, every point's state and the plastic work
         v.extend(s.mesh.u.iter().chain(&s.mesh.v).flatten());
         v.extend(s.mesh.stress.iter().flatten());
+        v.extend(s.mesh.plastic_strain.iter().flatten());
+        v.extend(&s.mesh.equivalent_plastic_strain);
+        for p in &s.mesh.plastic {
+            v.extend(p.strain.iter().flatten());
+            v.extend(&p.equivalent);
+        }
+        v.push(s.mesh.energy.plastic);
         self.0.push(v);
     }
 }

@@ -44,8 +44,8 @@
 //! | `energy.csv` | `t, kinetic, potential, total, drift, px, py, pz, Lx, Ly, Lz` (momenta world, angular about the world origin) |
 //! | `constraints.csv` | `t`, then per joint `<joint>.violation`, `<joint>.velocity_violation` (joints with nonholonomic rows only), `<joint>.lambda0 …` (one per row) |
 //! | `beams.pvd`, `beams/beams_NNNNNN.vtp` | scenes with beams: a ParaView time series, one VTK PolyData file per frame (nodes as points, elements as lines, the section quantities as cell data; see `vtk.rs`) |
-//! | `mesh.pvd`, `mesh/mesh_NNNNNN.vtu` | scenes with meshes: a ParaView time series, one VTK UnstructuredGrid per frame (reference points with `displacement` and `velocity`, elements with `stress`, `strain`, `von_mises`; see `vtu.rs`) |
-//! | `mesh_energy.csv` | scenes with meshes: `t, kinetic, strain, hourglass, foundation, external_work, dissipated, balance` (J): `balance = kinetic + strain + hourglass + foundation − external_work + dissipated`, constant up to the method's error |
+//! | `mesh.pvd`, `mesh/mesh_NNNNNN.vtu` | scenes with meshes: a ParaView time series, one VTK UnstructuredGrid per frame (reference points with `displacement` and `velocity`, elements with `stress`, `strain`, `von_mises`, and with a plastic mesh `plastic_strain` and `equivalent_plastic_strain`; see `vtu.rs`) |
+//! | `mesh_energy.csv` | scenes with meshes: `t, kinetic, strain, hourglass, foundation, external_work, dissipated, plastic, tie_work, balance` (J): `balance = kinetic + strain + hourglass + foundation − external_work − tie_work + dissipated + plastic`, constant up to the method's error (`strain` is the elastic strain energy, `plastic` the plastic work, `tie_work` the work the bodies do on the meshes through ties; tied nodes' kinetic energy is their body's) |
 //! | `beams.csv` | scenes with beams: one row per element and frame, `t, beam, element, s` (arc length of the element's midpoint, unstrained), section forces `N1 N2 N3` (axial, shear 2, shear 3; N), moments `M1 M2 M3` (torsion, bending 2, bending 3; N·m), strains `gamma1 gamma2 gamma3` and curvatures `kappa1 kappa2 kappa3` (1/m), all in the element's convected frame |
 //!
 //! Only the files the [`OutputSpec`] asks for are created.
@@ -122,8 +122,12 @@ pub struct Frame {
     pub mesh_stress: Vec<[f64; 6]>,
     /// Per mesh element: mean strain (tensor shear).
     pub mesh_strain: Vec<[f64; 6]>,
+    /// Per mesh element: mean plastic strain (tensor shear; empty when no mesh is plastic).
+    pub mesh_plastic_strain: Vec<[f64; 6]>,
+    /// Per mesh element: mean equivalent plastic strain (empty when no mesh is plastic).
+    pub mesh_equivalent_plastic_strain: Vec<f64>,
     /// The meshes' energies, J, in the order of [`MESH_ENERGY_COLUMNS`].
-    pub mesh_energy: [f64; 7],
+    pub mesh_energy: [f64; 9],
 }
 
 impl Frame {
@@ -146,7 +150,9 @@ impl Frame {
             mesh_v: vec![[0.0; 3]; layout.meshes.nodes()],
             mesh_stress: vec![[0.0; 6]; layout.meshes.elements()],
             mesh_strain: vec![[0.0; 6]; layout.meshes.elements()],
-            mesh_energy: [0.0; 7],
+            mesh_plastic_strain: vec![[0.0; 6]; plastic_elements(layout)],
+            mesh_equivalent_plastic_strain: vec![0.0; plastic_elements(layout)],
+            mesh_energy: [0.0; 9],
         }
     }
 
@@ -193,6 +199,16 @@ impl Frame {
             + layout.beams.elements.len() * 13 * 8
             + layout.meshes.nodes() * 6 * 8
             + layout.meshes.elements() * 12 * 8
+            + plastic_elements(layout) * 7 * 8
+    }
+}
+
+/// The number of elements with plastic outputs: all of them when some mesh is plastic.
+fn plastic_elements(layout: &Layout) -> usize {
+    if layout.meshes.is_plastic() {
+        layout.meshes.elements()
+    } else {
+        0
     }
 }
 

@@ -6,7 +6,9 @@
 //! `displacement` (m; ParaView's "Warp By Vector" shows the deformed shape) and `velocity`
 //! (m/s), and every element as a cell (VTK line, triangle, quad, tetra, hexahedron) with
 //! cell data `stress` and `strain` (6 components, Voigt xx yy zz yz xz xy; Pa and tensor
-//! strain), `von_mises` (Pa) and `mesh` (the mesh's index). ASCII, like the beams' series;
+//! strain), `von_mises` (Pa) and `mesh` (the mesh's index); when a mesh is plastic, also
+//! `plastic_strain` (6 components, tensor; bars: the axial one in xx) and
+//! `equivalent_plastic_strain` (0 in the elements of elastic meshes). ASCII, like the beams' series;
 //! the results-at-scale issue replaces it by a binary one-file series.
 
 use std::fmt::Write as _;
@@ -18,13 +20,15 @@ use crate::contract::scene::ElementKind;
 use crate::contract::system::Layout;
 
 /// Columns of `mesh_energy.csv` after `t`.
-pub const MESH_ENERGY_COLUMNS: [&str; 7] = [
+pub const MESH_ENERGY_COLUMNS: [&str; 9] = [
     "kinetic",
     "strain",
     "hourglass",
     "foundation",
     "external_work",
     "dissipated",
+    "plastic",
+    "tie_work",
     "balance",
 ];
 
@@ -135,6 +139,17 @@ impl MeshSeries {
             );
             for s in data.iter() {
                 let _ = writeln!(b, "{} {} {} {} {} {}", s[0], s[1], s[2], s[3], s[4], s[5]);
+            }
+            b.push_str("</DataArray>\n");
+        }
+        if !f.mesh_plastic_strain.is_empty() {
+            b.push_str("<DataArray type=\"Float64\" Name=\"plastic_strain\" NumberOfComponents=\"6\" format=\"ascii\">\n");
+            for s in &f.mesh_plastic_strain {
+                let _ = writeln!(b, "{} {} {} {} {} {}", s[0], s[1], s[2], s[3], s[4], s[5]);
+            }
+            b.push_str("</DataArray>\n<DataArray type=\"Float64\" Name=\"equivalent_plastic_strain\" format=\"ascii\">\n");
+            for a in &f.mesh_equivalent_plastic_strain {
+                let _ = writeln!(b, "{a}");
             }
             b.push_str("</DataArray>\n");
         }

@@ -6,10 +6,14 @@
 //!   `S = E · E_GL`, `f₁ = −f₀ = S A d / L` (along the current axis; `P = F S`), energy
 //!   `½ E E_GL² A L`. Exact under rigid rotations.
 //!
+//! - Elastoplastic ([`respond_plastic`]): the 1-D return of J2 plasticity on the axial
+//!   strain (ε or E_GL), `σ = E(ε − εᵖ)`, energy `½ σ (ε − εᵖ) A L`.
+//!
 //! Stress and strain: only xx, the axial component (σ or S; ε or E_GL). `min_jacobian` is
 //! `dx/dξ = |d|/2` (ξ ∈ [−1, 1]): 0 when the bar has collapsed to a point.
 //! With lumped masses `ρ A L / 2` the highest frequency is exactly `2c/L`, `c = √(E/ρ)`.
 
+use super::plasticity::{uniaxial_return, Plastic, PlasticPoints, PlasticResponse};
 use super::{Elastic, ElementOptions, ElementResponse, Kinematics};
 
 #[inline]
@@ -37,6 +41,50 @@ pub fn respond(
     _v: &[[f64; 3]; 2],
     out: &mut ElementResponse,
 ) {
+    respond_with(opts, x0, u, out, |strain| (mat.e * strain, strain));
+}
+
+/// Axial force, stress and strain of one elastoplastic bar: the 1-D return
+/// ([`uniaxial_return`]) on the axial strain (small strain) or on the Green–Lagrange
+/// strain with the second Piola–Kirchhoff stress (total Lagrangian). `points` holds the
+/// bar's one point: its axial plastic strain (in xx), `∫|dεᵖ|` and its last stress,
+/// updated; the work is `½ (σ_n + σ_{n+1}) Δεᵖ A L`.
+pub fn respond_plastic(
+    opts: &ElementOptions,
+    mat: &Elastic,
+    plastic: &Plastic,
+    x0: &[[f64; 3]; 2],
+    u: &[[f64; 3]; 2],
+    points: PlasticPoints<'_>,
+    out: &mut ElementResponse,
+) -> PlasticResponse {
+    let ep = &mut points.strain[0];
+    let alpha = &mut points.equivalent[0];
+    let s0 = &mut points.stress[0];
+    let (ep0, sigma0) = (ep[0], s0[0]);
+    let volume = respond_with(opts, x0, u, out, |strain| {
+        let s = uniaxial_return(mat.e, plastic, strain, &mut ep[0], alpha);
+        (s, strain - ep[0])
+    });
+    let sigma = out.stress[0];
+    s0[0] = sigma;
+    PlasticResponse {
+        strain: [ep[0], 0.0, 0.0, 0.0, 0.0, 0.0],
+        equivalent: *alpha,
+        work: volume * 0.5 * (sigma0 + sigma) * (ep[0] - ep0),
+    }
+}
+
+/// The bar with the axial stress from `law(strain) = (stress, elastic strain)`; returns
+/// the volume `A L`.
+#[inline]
+fn respond_with(
+    opts: &ElementOptions,
+    x0: &[[f64; 3]; 2],
+    u: &[[f64; 3]; 2],
+    out: &mut ElementResponse,
+    law: impl FnOnce(f64) -> (f64, f64),
+) -> f64 {
     let area = opts.thickness;
     let l0v = sub(&x0[1], &x0[0]);
     let l0 = norm(&l0v);
@@ -56,7 +104,7 @@ pub fn respond(
             (dl / (2.0 * l0 * l0), [d[0] / l0, d[1] / l0, d[2] / l0])
         }
     };
-    let s = mat.e * strain;
+    let (s, elastic) = law(strain);
     out.f = [[0.0; 3]; super::MAX_NODES];
     for (i, di) in dir.iter().enumerate() {
         out.f[1][i] = s * area * di;
@@ -64,10 +112,11 @@ pub fn respond(
     }
     out.stress = [s, 0.0, 0.0, 0.0, 0.0, 0.0];
     out.strain = [strain, 0.0, 0.0, 0.0, 0.0, 0.0];
-    out.strain_energy = 0.5 * s * strain * area * l0;
+    out.strain_energy = 0.5 * s * elastic * area * l0;
     out.hourglass_energy = 0.0;
     out.hourglass_power = 0.0;
     out.min_jacobian = 0.5 * norm(&d);
+    area * l0
 }
 
 /// Equal halves of `ρ A L`.

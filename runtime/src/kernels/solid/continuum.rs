@@ -203,15 +203,30 @@ pub(super) fn displacement_gradient<const N: usize>(u: &[V3; N], g: &[V3; N]) ->
     h
 }
 
-/// The elastic law as the quadrature loop needs it.
+/// How a quadrature point turns its strain into stress: the elastic law (stateless) or an
+/// elastoplastic one (`plasticity::PlasticLaw`, state per point). [`integrate`] is generic
+/// over it, so elastic blocks compile to the elastic loop alone.
+pub(super) trait PointLaw {
+    /// The stress at point `q` of weight `w` (volume) from its total strain `e` (Voigt,
+    /// tensor shears), and the elastic energy density `½ σ : εᵉ`.
+    fn point(&mut self, q: usize, w: f64, e: &[f64; 6]) -> ([f64; 6], f64);
+}
+
+/// The elastic law: `σ = λ tr ε I + 2μ ε` (λ* for plane stress).
 #[derive(Clone, Copy, Debug)]
-pub(super) struct Law {
-    /// Strain measure.
-    pub kin: Kinematics,
+pub(super) struct ElasticLaw {
     /// λ (λ* for plane stress).
     pub lambda: f64,
     /// μ.
     pub mu: f64,
+}
+
+impl PointLaw for ElasticLaw {
+    #[inline]
+    fn point(&mut self, _q: usize, _w: f64, e: &[f64; 6]) -> ([f64; 6], f64) {
+        let s = stress(self.lambda, self.mu, e);
+        (s, energy_density(&s, e))
+    }
 }
 
 /// Weighted sums over the quadrature points.
@@ -229,22 +244,24 @@ pub(super) struct Sums {
 
 /// Adds `∫ P ∇N_a dV` (with the B-bar term when `bbar`) to `f` over `Q` points with
 /// reference gradients `g[q]` and weights `w[q]` (`det J ×` quadrature weight `×` thickness),
-/// and returns the weighted sums of stress, strain, energy and volume.
-pub(super) fn integrate<const N: usize, const Q: usize>(
-    law: &Law,
+/// the stress of point `q` from `law` (called once per point, in order), and returns the
+/// weighted sums of stress, strain, energy and volume.
+pub(super) fn integrate<const N: usize, const Q: usize, L: PointLaw>(
+    kin: Kinematics,
+    law: &mut L,
     g: &[[V3; N]; Q],
     w: &[f64; Q],
     u: &[V3; N],
     bbar: bool,
     f: &mut [V3; N],
 ) -> Sums {
-    let tl = law.kin == Kinematics::TotalLagrangian;
+    let tl = kin == Kinematics::TotalLagrangian;
     let mut hq = [[[0.0; 3]; 3]; Q];
     let mut eq = [[0.0; 6]; Q];
     let mut volume = 0.0;
     for q in 0..Q {
         hq[q] = displacement_gradient(u, &g[q]);
-        eq[q] = strain(law.kin, &hq[q]);
+        eq[q] = strain(kin, &hq[q]);
         volume += w[q];
     }
     // Mean dilatation: θ̄ and ḡ_a = (1/V) ∫ F ∇N_a dV.
@@ -279,7 +296,7 @@ pub(super) fn integrate<const N: usize, const Q: usize>(
             e[1] += d;
             e[2] += d;
         }
-        let s = stress(law.lambda, law.mu, &e);
+        let (s, energy) = law.point(q, w[q], &e);
         let fq = deformation_gradient(&hq[q], tl);
         let st = tensor(&s);
         // P = F S.
@@ -306,7 +323,7 @@ pub(super) fn integrate<const N: usize, const Q: usize>(
             sums.stress[k] += wq * s[k];
             sums.strain[k] += wq * e[k];
         }
-        sums.energy += wq * energy_density(&s, &e);
+        sums.energy += wq * energy;
     }
     sums
 }
@@ -352,15 +369,14 @@ pub(super) fn plane_outputs(
     }
 }
 
-/// The law of a 2-D element: λ* for plane stress.
-pub(super) fn plane_law(kin: Kinematics, plane: super::Plane, mat: &super::Elastic) -> Law {
+/// The elastic law of a 2-D element: λ* for plane stress.
+pub(super) fn plane_law(plane: super::Plane, mat: &super::Elastic) -> ElasticLaw {
     let m = if plane == super::Plane::Stress {
         mat.plane_stress()
     } else {
         *mat
     };
-    Law {
-        kin,
+    ElasticLaw {
         lambda: m.lambda,
         mu: m.mu,
     }

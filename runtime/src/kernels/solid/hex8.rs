@@ -15,8 +15,8 @@
 //! `det J = V/8` on a parallelepiped.
 
 use super::continuum::{
-    current, det3, finish, gradients, hex8_dn, hex8_gauss, hex8_n, integrate, jacobian, Law,
-    HEX8_NODES, V3,
+    current, det3, finish, gradients, hex8_dn, hex8_gauss, hex8_n, integrate, jacobian, ElasticLaw,
+    PointLaw, HEX8_NODES, V3,
 };
 use super::hourglass::{apply, bb, gammas, HEX8_H};
 use super::{Elastic, ElementOptions, ElementResponse, Integration};
@@ -62,11 +62,25 @@ pub fn respond(
     v: &[[f64; 3]; 8],
     out: &mut ElementResponse,
 ) {
-    let law = Law {
-        kin: opts.kinematics,
+    let mut law = ElasticLaw {
         lambda: mat.lambda,
         mu: mat.mu,
     };
+    respond_with(opts, mat, &mut law, x0, u, v, out);
+}
+
+/// [`respond`] with the stress at the integration points (8, or 1 when reduced) from
+/// `law`; the hourglass control stays elastic (its stiffness from `mat`). Returns the
+/// volume.
+pub(super) fn respond_with<L: PointLaw>(
+    opts: &ElementOptions,
+    mat: &Elastic,
+    law: &mut L,
+    x0: &[[f64; 3]; 8],
+    u: &[[f64; 3]; 8],
+    v: &[[f64; 3]; 8],
+    out: &mut ElementResponse,
+) -> f64 {
     let xc = current(x0, u);
     let mut f = [[0.0; 3]; 8];
     match opts.integration {
@@ -81,17 +95,18 @@ pub fn respond(
                 w[q] = det;
                 min_j = min_j.min(det3(&jacobian(&xc, &dn, false)));
             }
-            let sums = integrate(&law, &g, &w, u, bbar, &mut f);
+            let sums = integrate(opts.kinematics, law, &g, &w, u, bbar, &mut f);
             finish(&f, &sums, out);
             out.hourglass_energy = 0.0;
             out.hourglass_power = 0.0;
             out.min_jacobian = min_j;
+            sums.volume
         }
         Integration::Reduced(hg) => {
             let (b, vol) = mean_gradients(x0);
-            let sums = integrate(&law, &[b], &[vol], u, false, &mut f);
+            let sums = integrate(opts.kinematics, law, &[b], &[vol], u, false, &mut f);
             let gam = gammas(&HEX8_H, x0, &b);
-            let m = law.lambda + 2.0 * law.mu;
+            let m = mat.lambda + 2.0 * mat.mu;
             let c_s = m * vol * bb(&b) / 3.0;
             let c_v = (m * mat.rho).sqrt() * vol.powf(2.0 / 3.0) / 4.0;
             let (e, p) = apply(hg, &gam, c_s, c_v, u, v, &mut f);
@@ -99,6 +114,7 @@ pub fn respond(
             out.hourglass_energy = e;
             out.hourglass_power = p;
             out.min_jacobian = det3(&jacobian(&xc, &hex8_dn([0.0; 3]), false));
+            sums.volume
         }
     }
 }

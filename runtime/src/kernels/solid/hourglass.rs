@@ -28,7 +28,10 @@
 //! - viscous: `f_a = C_v Σ_α γ_αa q̇_α`, with `C_v = κ ρ c V^{2/3} / 4` in 3-D (the FB /
 //!   Hallquist scaling, so the usual κ ≈ 0.05–0.15 carry over) and `C_v = κ ρ c t √A / 2`
 //!   for quad4, `c` the dilatational speed;
-//! - power `Σ_a f_a · v_a` in both cases; for the viscous form it is `C_v Σ|q̇_α|² ≥ 0`.
+//! - dissipated power: `Σ_a f_a · v_a = C_v Σ|q̇_α|² ≥ 0` for the viscous form; 0 for the
+//!   stiffness form, whose forces are conservative (their power is the rate of the stored
+//!   energy, which the integrator already counts: adding it as dissipation too would count
+//!   the hourglass energy twice in the balance).
 //!
 //! Moment balance: `Σ_a X_a × f_a = (Σ_a γ_αa X_a) × … = 0` (reference positions).
 
@@ -76,7 +79,8 @@ pub(super) fn bb<const N: usize>(b: &[V3; N]) -> f64 {
         .sum()
 }
 
-/// Adds the hourglass forces to `f`; returns (stored energy, power `Σ f_hg · v`).
+/// Adds the hourglass forces to `f`; returns (stored energy, dissipated power): stiffness
+/// `(½ C_s Σ|q_α|², 0)`, viscous `(0, Σ f_hg · v)`.
 /// `c_stiff` and `c_visc` are `C_s / κ` and `C_v / κ` (the coefficient comes from `hg`).
 pub(super) fn apply<const N: usize, const M: usize>(
     hg: Hourglass,
@@ -114,5 +118,9 @@ pub(super) fn apply<const N: usize, const M: usize>(
             power += fh[a][i] * v[a][i];
         }
     }
-    (if stiff { energy } else { 0.0 }, power)
+    if stiff {
+        (energy, 0.0)
+    } else {
+        (0.0, power)
+    }
 }

@@ -11,7 +11,10 @@
 //! plane strain, with a thickness), `tet4`, `hex8` with one-point integration and
 //! Flanagan–Belytschko hourglass control or fully integrated 2×2×2 (optionally B-bar).
 //! Kinematics ([`Kinematics`]): small strain (linear elastic) or total-Lagrangian
-//! St Venant–Kirchhoff (large rotations).
+//! St Venant–Kirchhoff (large rotations). Elastoplastic materials ([`respond_plastic`]):
+//! J2 plasticity with linear isotropic hardening by return mapping at every integration
+//! point ([`plasticity`]), with the state of the points passed in and updated; the elastic
+//! entry point [`respond`] has no state and compiles to the elastic loops alone.
 //!
 //! Beside the forces: [`lumped_masses`] (the element's share of mass per node),
 //! [`max_frequency`] (an upper bound of the element's highest undamped frequency with
@@ -20,7 +23,8 @@
 //!
 //! Files, one concept each: `material` (Lamé constants, plane-stress reduction
 //! `λ* = 2λμ/(λ+2μ)`, stress and energy density for both kinematics), `continuum`
-//! (isoparametric gradients, the quadrature loop, B-bar), `hourglass` (Flanagan–Belytschko,
+//! (isoparametric gradients, the quadrature loop generic over the point law, B-bar),
+//! [`plasticity`] (the return mappings and the elastoplastic point law), `hourglass` (Flanagan–Belytschko,
 //! its coefficients documented there), the element types [`bar2`], [`tri3`], [`quad4`],
 //! [`tet4`], [`hex8`] (public, with fixed-size-array entry points for monomorphised loops),
 //! `frequency` ([`max_frequency`]), `shape` ([`shape_check`]) and `tests`.
@@ -34,6 +38,7 @@
 //! quad4/hex8 with ξ ∈ [−1, 1]: `A/4`, `V/8` on parallelograms).
 
 use crate::contract::scene::ElementKind;
+pub use plasticity::{Plastic, PlasticPoints, PlasticResponse};
 
 pub mod bar2;
 mod continuum;
@@ -41,6 +46,7 @@ mod frequency;
 pub mod hex8;
 mod hourglass;
 mod material;
+pub mod plasticity;
 pub mod quad4;
 mod shape;
 #[cfg(test)]
@@ -146,8 +152,8 @@ pub struct ElementResponse {
     pub strain_energy: f64,
     /// Hourglass forces' stored energy (stiffness form, J).
     pub hourglass_energy: f64,
-    /// Power of the hourglass forces `Σ f_hg · v` (W): for the viscous form, the rate at
-    /// which hourglass control dissipates energy.
+    /// The power the hourglass control dissipates (W): `Σ f_hg · v` for the viscous form,
+    /// 0 for the stiffness form (conservative: its work goes into `hourglass_energy`).
     pub hourglass_power: f64,
     /// Smallest Jacobian determinant of the deformed element over its integration points
     /// (≤ 0: the element has inverted).
@@ -217,6 +223,93 @@ pub fn respond(
         ),
         ElementKind::Tet4 => tet4::respond(opts, mat, nodes(x0), nodes(u), nodes(v), out),
         ElementKind::Hex8 => hex8::respond(opts, mat, nodes(x0), nodes(u), nodes(v), out),
+    }
+}
+
+/// Number of integration points of an element of `kind` evaluated with `opts`: the length
+/// of the [`PlasticPoints`] slices [`respond_plastic`] takes. bar2, tri3, tet4 and reduced
+/// quad4/hex8: 1; full or B-bar quad4: 4; full or B-bar hex8: 8.
+pub fn integration_points(kind: ElementKind, opts: &ElementOptions) -> usize {
+    let full = matches!(opts.integration, Integration::Full { .. });
+    match kind {
+        ElementKind::Quad4PlaneStress | ElementKind::Quad4PlaneStrain if full => 4,
+        ElementKind::Hex8 if full => 8,
+        _ => 1,
+    }
+}
+
+/// [`respond`] for an elastoplastic material: J2 plasticity with linear isotropic
+/// hardening ([`plasticity`]) at every integration point. `points` holds the plastic state
+/// of the element's [`integration_points`] (plastic strain, equivalent plastic strain) at
+/// the start of the step and is updated by the return mapping; the returned
+/// [`PlasticResponse`] has their volume means and the plastic work of this evaluation.
+///
+/// Per kind: bar2 the 1-D return; plane-stress tri3/quad4 the plane-stress return of
+/// Simo & Taylor (σ_zz = 0 exactly); plane-strain tri3/quad4, tet4 and hex8 (one-point,
+/// full and B-bar, where the return sees the B-bar strain) the 3-D radial return. The
+/// hourglass forces of one-point elements stay elastic. With total Lagrangian kinematics
+/// the returns act on the Green–Lagrange strain and the second Piola–Kirchhoff stress
+/// (additive split; valid for small elastic strains). `out.strain_energy` is the elastic
+/// energy `½ σ : εᵉ`; for plane stress `out.strain[2]` includes the plastic `εᵖ_zz`.
+/// No allocation.
+///
+/// # Panics
+/// When `points` holds fewer than [`integration_points`] entries.
+#[allow(clippy::too_many_arguments)] // respond's arguments, the constants and the state
+pub fn respond_plastic(
+    kind: ElementKind,
+    opts: &ElementOptions,
+    mat: &Elastic,
+    plastic: &Plastic,
+    x0: &[[f64; 3]],
+    u: &[[f64; 3]],
+    v: &[[f64; 3]],
+    points: PlasticPoints<'_>,
+    out: &mut ElementResponse,
+) -> PlasticResponse {
+    use plasticity::PlasticLaw;
+    let plane = plane_of(kind);
+    let law = |lambda: f64, plane_stress: bool, points| {
+        PlasticLaw::new(lambda, mat.mu, plane_stress, *plastic, points)
+    };
+    match kind {
+        ElementKind::Bar2 => {
+            bar2::respond_plastic(opts, mat, plastic, nodes(x0), nodes(u), points, out)
+        }
+        ElementKind::Tet4 | ElementKind::Hex8 => {
+            let mut l = law(mat.lambda, false, points);
+            let volume = if kind == ElementKind::Tet4 {
+                tet4::respond_with(opts, &mut l, nodes(x0), nodes(u), nodes(v), out)
+            } else {
+                hex8::respond_with(opts, mat, &mut l, nodes(x0), nodes(u), nodes(v), out)
+            };
+            l.response(volume)
+        }
+        _ => {
+            let stress = plane == Plane::Stress;
+            let lambda = if stress {
+                mat.plane_stress().lambda
+            } else {
+                mat.lambda
+            };
+            let mut l = law(lambda, stress, points);
+            let volume = if matches!(
+                kind,
+                ElementKind::Tri3PlaneStress | ElementKind::Tri3PlaneStrain
+            ) {
+                tri3::respond_with(opts, mat, plane, &mut l, nodes(x0), nodes(u), nodes(v), out)
+            } else {
+                quad4::respond_with(opts, mat, plane, &mut l, nodes(x0), nodes(u), nodes(v), out)
+            };
+            let r = l.response(volume);
+            if stress {
+                // ε_zz = εᵉ_zz + εᵖ_zz, εᵉ_zz = −λ/(λ+2μ)(εᵉ_xx + εᵉ_yy): the elastic
+                // formula on the total strain (plane_outputs) misses −(1 − λ/(λ+2μ))(εᵖ_xx + εᵖ_yy).
+                let c = mat.lambda / (mat.lambda + 2.0 * mat.mu);
+                out.strain[2] -= (1.0 - c) * (r.strain[0] + r.strain[1]);
+            }
+            r
+        }
     }
 }
 

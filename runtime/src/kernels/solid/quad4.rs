@@ -13,7 +13,7 @@
 
 use super::continuum::{
     current, det3, finish, flatten, gradients, integrate, jacobian, plane_law, plane_outputs,
-    quad4_dn, quad4_gauss, quad4_n, QUAD4_NODES, V3,
+    quad4_dn, quad4_gauss, quad4_n, PointLaw, QUAD4_NODES, V3,
 };
 use super::hourglass::{apply, bb, gammas, QUAD4_H};
 use super::{Elastic, ElementOptions, ElementResponse, Integration, Plane};
@@ -61,12 +61,29 @@ pub fn respond(
     v: &[[f64; 3]; 4],
     out: &mut ElementResponse,
 ) {
+    respond_with(opts, mat, plane, &mut plane_law(plane, mat), x0, u, v, out);
+}
+
+/// [`respond`] with the stress at the integration points (4, or 1 when reduced) from
+/// `law`; the hourglass control stays elastic (its stiffness from `mat`). Returns the
+/// volume (area × thickness).
+#[allow(clippy::too_many_arguments)] // respond's arguments and the law
+pub(super) fn respond_with<L: PointLaw>(
+    opts: &ElementOptions,
+    mat: &Elastic,
+    plane: Plane,
+    law: &mut L,
+    x0: &[[f64; 3]; 4],
+    u: &[[f64; 3]; 4],
+    v: &[[f64; 3]; 4],
+    out: &mut ElementResponse,
+) -> f64 {
     let (x0, u, v) = (flatten(x0), flatten(u), flatten(v));
-    let law = plane_law(opts.kinematics, plane, mat);
+    let elastic = plane_law(plane, mat);
     let t = opts.thickness;
     let xc = current(&x0, &u);
     let mut f = [[0.0; 3]; 4];
-    match opts.integration {
+    let volume = match opts.integration {
         Integration::Full { bbar } => {
             let mut g = [[[0.0; 3]; 4]; 4];
             let mut w = [0.0; 4];
@@ -79,17 +96,19 @@ pub fn respond(
                 w[q] = det * t;
                 min_j = min_j.min(det3(&jacobian(&xc, &dn, true)));
             }
-            let sums = integrate(&law, &g, &w, &u, bbar && plane == Plane::Strain, &mut f);
+            let bbar = bbar && plane == Plane::Strain;
+            let sums = integrate(opts.kinematics, law, &g, &w, &u, bbar, &mut f);
             finish(&f, &sums, out);
             out.hourglass_energy = 0.0;
             out.hourglass_power = 0.0;
             out.min_jacobian = min_j;
+            sums.volume
         }
         Integration::Reduced(hg) => {
             let (b, area) = mean_gradients(&x0);
-            let sums = integrate(&law, &[b], &[area * t], &u, false, &mut f);
+            let sums = integrate(opts.kinematics, law, &[b], &[area * t], &u, false, &mut f);
             let gam = gammas(&QUAD4_H, &x0, &b);
-            let m = law.lambda + 2.0 * law.mu;
+            let m = elastic.lambda + 2.0 * elastic.mu;
             let c_s = m * t * area * bb(&b) / 2.0;
             let c_v = (m * mat.rho).sqrt() * t * area.sqrt() / 2.0;
             let (e, p) = apply(hg, &gam, c_s, c_v, &u, &v, &mut f);
@@ -97,9 +116,11 @@ pub fn respond(
             out.hourglass_energy = e;
             out.hourglass_power = p;
             out.min_jacobian = det3(&jacobian(&xc, &quad4_dn(0.0, 0.0), true));
+            sums.volume
         }
-    }
+    };
     plane_outputs(plane, mat, out);
+    volume
 }
 
 /// Row-sum lumped masses `ρ t ∫ N_a dA` (exact by 2×2 Gauss; equal quarters on a

@@ -559,6 +559,11 @@ fn hourglass_modes_of_one_point_hex8() {
                 .sum();
             assert!(work > 0.0);
             assert!((r1.hourglass_energy - 0.5 * work).abs() < 1e-12 * work);
+            // Conservative: no dissipated power, whatever the velocity.
+            assert_eq!(
+                eval(ElementKind::Hex8, &stiff, &m, &x0, &u, &u).hourglass_power,
+                0.0
+            );
             // C_s = κ (λ+2μ) V (b·b)/3 with b·b = 24/16 on the unit cube; γ = h, q = 8·1e-4.
             let cs = 0.1 * (m.lambda + 2.0 * m.mu) * 1.5 / 3.0;
             assert!((r1.f[0][comp] - cs * 8.0 * 1e-4 * h[0]).abs() < 1e-9 * cs * 8e-4);
@@ -1038,4 +1043,229 @@ fn min_jacobian_detects_inversion() {
 #[test]
 fn voigt_order_is_xx_yy_zz_yz_xz_xy() {
     assert_eq!(VOIGT, [(0, 0), (1, 1), (2, 2), (1, 2), (0, 2), (0, 1)]);
+}
+
+// ---------------------------------------------------------------- plasticity
+
+/// The plastic state of `n` integration points, fresh.
+struct Points {
+    strain: Vec<[f64; 6]>,
+    equivalent: Vec<f64>,
+    stress: Vec<[f64; 6]>,
+}
+
+impl Points {
+    fn new(n: usize) -> Points {
+        Points {
+            strain: vec![[0.0; 6]; n],
+            equivalent: vec![0.0; n],
+            stress: vec![[0.0; 6]; n],
+        }
+    }
+    fn view(&mut self) -> PlasticPoints<'_> {
+        PlasticPoints {
+            strain: &mut self.strain,
+            equivalent: &mut self.equivalent,
+            stress: &mut self.stress,
+        }
+    }
+}
+
+fn eval_plastic(
+    kind: ElementKind,
+    o: &ElementOptions,
+    m: &Elastic,
+    p: &Plastic,
+    x0: &X,
+    u: &X,
+    pts: &mut Points,
+) -> (ElementResponse, PlasticResponse) {
+    let n = kind.nodes();
+    let mut out = ElementResponse::default();
+    let pr = respond_plastic(
+        kind,
+        o,
+        m,
+        p,
+        &x0[..n],
+        &u[..n],
+        &u[..n],
+        pts.view(),
+        &mut out,
+    );
+    (out, pr)
+}
+
+/// Reference: with a yield stress no state reaches, the elastoplastic kernels compute what
+/// the elastic ones compute — bitwise (the elastic strain is the strain minus an exact
+/// zero, and the plane-stress return forms the same products) — for every kind, variant
+/// and kinematics, and leave the state at zero.
+#[test]
+fn plastic_kernels_below_yield_are_the_elastic_kernels() {
+    let m = steel();
+    let p = Plastic {
+        yield_stress: 1e15,
+        hardening: 0.0,
+    };
+    for kind in ALL {
+        let x0 = geometry(kind);
+        let u = field(kind, &x0, |x| matvec(&A, x));
+        for integ in variants(kind) {
+            for kin in [Kinematics::SmallStrain, Kinematics::TotalLagrangian] {
+                let o = opts(kin, integ);
+                let mut pts = Points::new(integration_points(kind, &o));
+                let r = eval(kind, &o, &m, &x0, &u, &u);
+                let (rp, pr) = eval_plastic(kind, &o, &m, &p, &x0, &u, &mut pts);
+                let what = format!("{kind:?} {integ:?} {kin:?}");
+                assert_eq!(r, rp, "{what}");
+                assert_eq!(pr, PlasticResponse::default(), "{what}");
+                assert!(pts.equivalent.iter().all(|&a| a == 0.0), "{what}");
+            }
+        }
+    }
+}
+
+/// Reference: a homogeneous displacement gradient (strains ≈ 3–4× the yield strain) is
+/// reproduced exactly by every element, so every integration point sees the same strain
+/// and the element's stress and state are those of one return at that strain:
+/// [`plasticity::radial_return`] (3-D kinds, plane strain), the plane-stress return
+/// (plane-stress kinds) or the 1-D return of the axial strain (bar2); tolerance 1e-10
+/// relative. The volume means of the state equal the point state, the plastic work of this
+/// first step is the trapezoidal `V ½ (0 + σ) : εᵖ`, the points keep σ, and the strain
+/// energy is `V ½ σ : εᵉ`. Every kind and variant, both kinematics (total Lagrangian on
+/// the Green–Lagrange strain).
+#[test]
+fn plastic_kernels_under_a_homogeneous_strain_return_like_one_point() {
+    use super::plasticity::{plane_stress_return, radial_return, uniaxial_return};
+    let m = steel();
+    let p = Plastic {
+        yield_stress: 250e6,
+        hardening: 5e9,
+    };
+    for kind in ALL {
+        let x0 = geometry(kind);
+        let mut a = A;
+        a.iter_mut().flatten().for_each(|x| *x *= 4.0);
+        if kind.dim() == 2 {
+            for i in 0..3 {
+                a[2][i] = 0.0;
+                a[i][2] = 0.0;
+            }
+        }
+        let u = field(kind, &x0, |x| matvec(&a, x));
+        for integ in variants(kind) {
+            for kin in [Kinematics::SmallStrain, Kinematics::TotalLagrangian] {
+                let o = opts(kin, integ);
+                let what = format!("{kind:?} {integ:?} {kin:?}");
+                let e = super::material::strain(kin, &a);
+                let (mut ep, mut alpha) = ([0.0; 6], 0.0);
+                let want = match kind {
+                    ElementKind::Bar2 => {
+                        let d = [
+                            x0[1][0] - x0[0][0],
+                            x0[1][1] - x0[0][1],
+                            x0[1][2] - x0[0][2],
+                        ];
+                        let l = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+                        let n = [d[0] / l, d[1] / l, d[2] / l];
+                        let tn = matvec(&super::material::tensor(&e), &n);
+                        let axial = n[0] * tn[0] + n[1] * tn[1] + n[2] * tn[2];
+                        let s = uniaxial_return(m.e, &p, axial, &mut ep[0], &mut alpha);
+                        [s, 0.0, 0.0, 0.0, 0.0, 0.0]
+                    }
+                    ElementKind::Tri3PlaneStress | ElementKind::Quad4PlaneStress => {
+                        let ls = m.plane_stress().lambda;
+                        plane_stress_return(ls, m.mu, &p, &e, &mut ep, &mut alpha)
+                    }
+                    _ => radial_return(m.lambda, m.mu, &p, &e, &mut ep, &mut alpha),
+                };
+                // Well past yield (ε_y = 1.25e-3).
+                assert!(alpha > 5e-4, "{what}: not plastic enough ({alpha})");
+                let mut pts = Points::new(integration_points(kind, &o));
+                let (r, pr) = eval_plastic(kind, &o, &m, &p, &x0, &u, &mut pts);
+                assert_close6(&r.stress, &want, 1e-10, &what);
+                assert_close6(&pr.strain, &ep, 1e-10, &what);
+                assert!((pr.equivalent / alpha - 1.0).abs() < 1e-10, "{what}");
+                for (q, a_q) in pts.equivalent.iter().enumerate() {
+                    assert!((a_q / alpha - 1.0).abs() < 1e-10, "{what}: point {q}");
+                }
+                // The element's volume: ρV from the lumped masses with ρ = 1 (bars: A L).
+                let vol: f64 = lumped_masses(kind, &o, 1.0, &x0[..kind.nodes()])
+                    .iter()
+                    .sum();
+                let mut ee = [0.0; 6];
+                for k in 0..6 {
+                    ee[k] = if kind == ElementKind::Bar2 {
+                        [e_axial(&x0, &e), 0.0, 0.0, 0.0, 0.0, 0.0][k] - ep[k]
+                    } else {
+                        e[k] - ep[k]
+                    };
+                }
+                // ½ a : b with tensor shears.
+                let dot = |a: &[f64; 6], b: &[f64; 6]| {
+                    0.5 * (a[0] * b[0] + a[1] * b[1] + a[2] * b[2])
+                        + (a[3] * b[3] + a[4] * b[4] + a[5] * b[5])
+                };
+                let w = dot(&want, &ee);
+                let hg = r.hourglass_energy;
+                assert!(
+                    (r.strain_energy + hg - vol * w).abs() < 1e-9 * vol * w,
+                    "{what}: energy {} vs V·½σ:εᵉ {}",
+                    r.strain_energy,
+                    vol * w
+                );
+                // One step from rest: the trapezoidal work V ½ (0 + σ) : εᵖ, and the points
+                // keep the stress for the next step.
+                let wp = vol * dot(&want, &ep);
+                assert!(
+                    (pr.work - wp).abs() < 1e-9 * wp,
+                    "{what}: plastic work {} vs V ½σ:εᵖ {wp}",
+                    pr.work
+                );
+                for s in &pts.stress {
+                    assert_close6(s, &want, 1e-10, &what);
+                }
+            }
+        }
+    }
+}
+
+/// The axial Green/small strain of a bar under the homogeneous strain `e`.
+fn e_axial(x0: &X, e: &[f64; 6]) -> f64 {
+    let d = [
+        x0[1][0] - x0[0][0],
+        x0[1][1] - x0[0][1],
+        x0[1][2] - x0[0][2],
+    ];
+    let l = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+    let n = [d[0] / l, d[1] / l, d[2] / l];
+    let tn = matvec(&super::material::tensor(e), &n);
+    n[0] * tn[0] + n[1] * tn[1] + n[2] * tn[2]
+}
+
+/// Reference: plastic flow is isochoric and σ_zz = 0 in plane stress, so the thickness
+/// strain of a plane-stress element is `−λ/(λ+2μ)(εᵉ_xx + εᵉ_yy) + εᵖ_zz` with
+/// `εᵖ_zz = −(εᵖ_xx + εᵖ_yy)`: checked against the element's state to 1e-12.
+#[test]
+fn plane_stress_thickness_strain_includes_the_plastic_part() {
+    let m = steel();
+    let p = Plastic {
+        yield_stress: 250e6,
+        hardening: 0.0,
+    };
+    for kind in [ElementKind::Tri3PlaneStress, ElementKind::Quad4PlaneStress] {
+        let x0 = geometry(kind);
+        let u = field(kind, &x0, |x| {
+            [3e-3 * x[0], -1e-3 * x[1] + 2e-3 * x[0], 0.0]
+        });
+        let o = opts(Kinematics::SmallStrain, Integration::default());
+        let mut pts = Points::new(integration_points(kind, &o));
+        let (r, pr) = eval_plastic(kind, &o, &m, &p, &x0, &u, &mut pts);
+        assert!(pr.equivalent > 1e-3);
+        assert_eq!(r.stress[2], 0.0);
+        let c = m.lambda / (m.lambda + 2.0 * m.mu);
+        let want = -c * (r.strain[0] - pr.strain[0] + r.strain[1] - pr.strain[1]) + pr.strain[2];
+        assert!((r.strain[2] - want).abs() < 1e-12 * want.abs(), "{kind:?}");
+        assert!((pr.strain[2] + pr.strain[0] + pr.strain[1]).abs() < 1e-15);
+    }
 }

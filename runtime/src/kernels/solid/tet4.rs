@@ -5,7 +5,7 @@
 //! the gradients are the rows of `J⁻¹`: `∇N₁ = (b × c)/det J`, `∇N₂ = (c × a)/det J`,
 //! `∇N₃ = (a × b)/det J`, `∇N₀ = −Σ`; one point of weight V.
 
-use super::continuum::{current, finish, integrate, Law, V3};
+use super::continuum::{current, finish, integrate, ElasticLaw, PointLaw, V3};
 use super::{Elastic, ElementOptions, ElementResponse};
 
 #[inline]
@@ -58,21 +58,33 @@ pub fn respond(
     mat: &Elastic,
     x0: &[[f64; 3]; 4],
     u: &[[f64; 3]; 4],
-    _v: &[[f64; 3]; 4],
+    v: &[[f64; 3]; 4],
     out: &mut ElementResponse,
 ) {
-    let (g, vol) = gradients(x0);
-    let law = Law {
-        kin: opts.kinematics,
+    let mut law = ElasticLaw {
         lambda: mat.lambda,
         mu: mat.mu,
     };
+    respond_with(opts, &mut law, x0, u, v, out);
+}
+
+/// [`respond`] with the stress from `law` at the one point; returns the volume.
+pub(super) fn respond_with<L: PointLaw>(
+    opts: &ElementOptions,
+    law: &mut L,
+    x0: &[[f64; 3]; 4],
+    u: &[[f64; 3]; 4],
+    _v: &[[f64; 3]; 4],
+    out: &mut ElementResponse,
+) -> f64 {
+    let (g, vol) = gradients(x0);
     let mut f = [[0.0; 3]; 4];
-    let sums = integrate(&law, &[g], &[vol], u, false, &mut f);
+    let sums = integrate(opts.kinematics, law, &[g], &[vol], u, false, &mut f);
     finish(&f, &sums, out);
     out.hourglass_energy = 0.0;
     out.hourglass_power = 0.0;
     out.min_jacobian = jacobian(&current(x0, u));
+    sums.volume
 }
 
 /// Equal quarters of `ρ V`.

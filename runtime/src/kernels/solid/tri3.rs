@@ -5,7 +5,9 @@
 //! `∇N₁ = (b_y, −b_x)/det J`, `∇N₂ = (−a_y, a_x)/det J`, `∇N₀ = −∇N₁ − ∇N₂`; one point of
 //! weight `A t`. z components of the inputs are ignored and the z forces are 0.
 
-use super::continuum::{current, finish, flatten, integrate, plane_law, plane_outputs, V3};
+use super::continuum::{
+    current, finish, flatten, integrate, plane_law, plane_outputs, PointLaw, V3,
+};
 use super::{Elastic, ElementOptions, ElementResponse, Plane};
 
 /// `det J = 2A` of the triangle (x, y only): positive when counter-clockwise.
@@ -41,19 +43,43 @@ pub fn respond(
     plane: Plane,
     x0: &[[f64; 3]; 3],
     u: &[[f64; 3]; 3],
-    _v: &[[f64; 3]; 3],
+    v: &[[f64; 3]; 3],
     out: &mut ElementResponse,
 ) {
+    respond_with(opts, mat, plane, &mut plane_law(plane, mat), x0, u, v, out);
+}
+
+/// [`respond`] with the stress from `law` at the one point; returns the element's volume
+/// (area × thickness).
+#[allow(clippy::too_many_arguments)] // respond's arguments and the law
+pub(super) fn respond_with<L: PointLaw>(
+    opts: &ElementOptions,
+    mat: &Elastic,
+    plane: Plane,
+    law: &mut L,
+    x0: &[[f64; 3]; 3],
+    u: &[[f64; 3]; 3],
+    _v: &[[f64; 3]; 3],
+    out: &mut ElementResponse,
+) -> f64 {
     let u = flatten(u);
     let (g, area) = gradients(x0);
-    let law = plane_law(opts.kinematics, plane, mat);
     let mut f = [[0.0; 3]; 3];
-    let sums = integrate(&law, &[g], &[area * opts.thickness], &u, false, &mut f);
+    let sums = integrate(
+        opts.kinematics,
+        law,
+        &[g],
+        &[area * opts.thickness],
+        &u,
+        false,
+        &mut f,
+    );
     finish(&f, &sums, out);
     plane_outputs(plane, mat, out);
     out.hourglass_energy = 0.0;
     out.hourglass_power = 0.0;
     out.min_jacobian = jacobian(&current(x0, &u));
+    sums.volume
 }
 
 /// Equal thirds of `ρ A t`.
