@@ -615,6 +615,9 @@ impl MeshDynamics {
     }
 }
 
+/// One vector per node of an element (first `kind.nodes()` rows used).
+type NodeRows = [[f64; 3]; MAX_NODES];
+
 /// The reference coordinates, displacements and velocities of element `e`'s nodes.
 #[inline]
 fn gather_element(
@@ -623,11 +626,7 @@ fn gather_element(
     e: usize,
     u: &[[f64; 3]],
     v: &[[f64; 3]],
-) -> (
-    [[f64; 3]; MAX_NODES],
-    [[f64; 3]; MAX_NODES],
-    [[f64; 3]; MAX_NODES],
-) {
+) -> (NodeRows, NodeRows, NodeRows) {
     let mut x0 = [[0.0; 3]; MAX_NODES];
     let mut ue = [[0.0; 3]; MAX_NODES];
     let mut ve = [[0.0; 3]; MAX_NODES];
