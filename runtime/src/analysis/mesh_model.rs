@@ -774,4 +774,43 @@ mod tests {
             assert!(err.reason.contains("(0, 1]"), "{err}");
         }
     }
+
+    /// A plastic material reaches the kernels' constants and the layout; a yield stress
+    /// that is not positive and finite, or a negative or non-finite hardening modulus, is
+    /// refused (the compiler reports the same with spans; this guards other scenes).
+    #[test]
+    fn plastic_materials_are_checked() {
+        use crate::contract::scene::Plasticity;
+        let with = |yield_stress, hardening| {
+            let mut m = cube(ElementKind::Hex8, MeshFormulation::default());
+            m.material.plastic = Some(Plasticity {
+                yield_stress,
+                hardening,
+            });
+            m
+        };
+        let l = build(&[with(250e6, 1e9)]).expect("valid");
+        assert!(l.is_plastic());
+        assert_eq!(
+            plastic(&l.blocks[0].material),
+            Some(solid::Plastic {
+                yield_stress: 250e6,
+                hardening: 1e9
+            })
+        );
+        assert!(
+            !build(&[cube(ElementKind::Hex8, MeshFormulation::default())])
+                .expect("valid")
+                .is_plastic()
+        );
+        assert!(build(&[with(250e6, 0.0)]).is_ok(), "perfectly plastic");
+        for y in [0.0, -1.0, f64::NAN, f64::INFINITY] {
+            let err = build(&[with(y, 0.0)]).expect_err("bad yield stress");
+            assert!(err.reason.contains("yield stress"), "{err}");
+        }
+        for h in [-1.0, f64::NAN, f64::INFINITY] {
+            let err = build(&[with(250e6, h)]).expect_err("bad hardening");
+            assert!(err.reason.contains("hardening"), "{err}");
+        }
+    }
 }

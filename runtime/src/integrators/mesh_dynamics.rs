@@ -527,64 +527,62 @@ impl MeshDynamics {
             let stress = &mut self.stress[e0..e0 + ne];
             let strain = &mut self.strain[e0..e0 + ne];
             let scalars = &mut self.scalars[e0..e0 + ne];
-            if let Some(law) = &ev.plastic {
-                let (ps, pout) = (&mut self.plastic[bi], &mut self.plastic_out[bi]);
-                plastic_block(
-                    l,
-                    b,
-                    ev,
-                    law,
-                    (u, v),
-                    ps,
-                    pout,
-                    (slots, stress, strain, scalars),
+            let one = |e: usize,
+                       fs: &mut [[f64; 3]],
+                       st: &mut [f64; 6],
+                       sn: &mut [f64; 6],
+                       sc: &mut ElementScalars| {
+                let mut x0 = [[0.0; 3]; MAX_NODES];
+                let mut ue = [[0.0; 3]; MAX_NODES];
+                let mut ve = [[0.0; 3]; MAX_NODES];
+                for (a, &g) in b.element_nodes(e).iter().enumerate() {
+                    x0[a] = l.x0[g as usize];
+                    ue[a] = u[g as usize];
+                    ve[a] = v[g as usize];
+                }
+                let mut r = ElementResponse::default();
+                solid::respond(
+                    b.kind,
+                    &ev.opts,
+                    &ev.mat,
+                    &x0[..npe],
+                    &ue[..npe],
+                    &ve[..npe],
+                    &mut r,
                 );
-            } else {
-                let one = |e: usize,
-                           fs: &mut [[f64; 3]],
-                           st: &mut [f64; 6],
-                           sn: &mut [f64; 6],
-                           sc: &mut ElementScalars| {
-                    let (x0, ue, ve) = gather_element(l, b, e, u, v);
-                    let mut r = ElementResponse::default();
-                    solid::respond(
-                        b.kind,
-                        &ev.opts,
-                        &ev.mat,
-                        &x0[..npe],
-                        &ue[..npe],
-                        &ve[..npe],
-                        &mut r,
-                    );
-                    fs.copy_from_slice(&r.f[..npe]);
-                    *st = r.stress;
-                    *sn = r.strain;
-                    *sc = ElementScalars {
-                        strain_energy: r.strain_energy,
-                        hourglass_energy: r.hourglass_energy,
-                        hourglass_power: r.hourglass_power,
-                        min_jacobian: r.min_jacobian,
-                    };
+                fs.copy_from_slice(&r.f[..npe]);
+                *st = r.stress;
+                *sn = r.strain;
+                *sc = ElementScalars {
+                    strain_energy: r.strain_energy,
+                    hourglass_energy: r.hourglass_energy,
+                    hourglass_power: r.hourglass_power,
+                    min_jacobian: r.min_jacobian,
                 };
-                if ne >= PARALLEL_ELEMENTS {
-                    slots
-                        .par_chunks_mut(npe)
-                        .zip(stress.par_iter_mut())
-                        .zip(strain.par_iter_mut())
-                        .zip(scalars.par_iter_mut())
-                        .enumerate()
-                        .with_min_len(256)
-                        .for_each(|(e, (((fs, st), sn), sc))| one(e, fs, st, sn, sc));
-                } else {
-                    for (e, (((fs, st), sn), sc)) in slots
-                        .chunks_mut(npe)
-                        .zip(stress.iter_mut())
-                        .zip(strain.iter_mut())
-                        .zip(scalars.iter_mut())
-                        .enumerate()
-                    {
-                        one(e, fs, st, sn, sc);
-                    }
+            };
+            if let Some(law) = &ev.plastic {
+                // The block's choice: the elastoplastic loop with its points' state.
+                let (ps, pout) = (&mut self.plastic[bi], &mut self.plastic_out[bi]);
+                let outs = (&mut *slots, &mut *stress, &mut *strain, &mut *scalars);
+                plastic_block(l, b, ev, law, (u, v), ps, pout, outs);
+            } else if ne >= PARALLEL_ELEMENTS {
+                slots
+                    .par_chunks_mut(npe)
+                    .zip(stress.par_iter_mut())
+                    .zip(strain.par_iter_mut())
+                    .zip(scalars.par_iter_mut())
+                    .enumerate()
+                    .with_min_len(256)
+                    .for_each(|(e, (((fs, st), sn), sc))| one(e, fs, st, sn, sc));
+            } else {
+                for (e, (((fs, st), sn), sc)) in slots
+                    .chunks_mut(npe)
+                    .zip(stress.iter_mut())
+                    .zip(strain.iter_mut())
+                    .zip(scalars.iter_mut())
+                    .enumerate()
+                {
+                    one(e, fs, st, sn, sc);
                 }
             }
             // An inverted element stops the run where it happened.
@@ -716,6 +714,9 @@ impl MeshDynamics {
     }
 }
 
+/// One vector per node of an element (first `kind.nodes()` rows used).
+type NodeRows = [[f64; 3]; MAX_NODES];
+
 /// The reference coordinates, displacements and velocities of element `e`'s nodes.
 #[inline]
 fn gather_element(
@@ -724,11 +725,7 @@ fn gather_element(
     e: usize,
     u: &[[f64; 3]],
     v: &[[f64; 3]],
-) -> (
-    [[f64; 3]; MAX_NODES],
-    [[f64; 3]; MAX_NODES],
-    [[f64; 3]; MAX_NODES],
-) {
+) -> (NodeRows, NodeRows, NodeRows) {
     let mut x0 = [[0.0; 3]; MAX_NODES];
     let mut ue = [[0.0; 3]; MAX_NODES];
     let mut ve = [[0.0; 3]; MAX_NODES];

@@ -8,8 +8,8 @@
 //! cell data `stress` and `strain` (6 components, Voigt xx yy zz yz xz xy; Pa and tensor
 //! strain), `von_mises` (Pa) and `mesh` (the mesh's index); when a mesh is plastic, also
 //! `plastic_strain` (6 components, tensor; bars: the axial one in xx) and
-//! `equivalent_plastic_strain` (0 in the elements of elastic meshes). ASCII, like the beams' series;
-//! the results-at-scale issue replaces it by a binary one-file series.
+//! `equivalent_plastic_strain` (0 in the elements of elastic meshes). ASCII, like the
+//! beams' series; the results-at-scale issue replaces it by a binary one-file series.
 
 use std::fmt::Write as _;
 use std::path::Path;
