@@ -11,10 +11,11 @@
 //! terms (viscous hourglass control) use the lagged `v^{n+½}` (notes D §1.1 [M]).
 //!
 //! **One step** (no allocation): (1) every element, in parallel over type-homogeneous
-//! blocks, evaluates its kernel ([`crate::kernels::solid::respond`]) into its own force
-//! slots; (2) every node, in parallel, sums its slots in the fixed order of the layout's
-//! plan (node-centric gather, notes D §6.3 B): no atomics, and results are bitwise the same
-//! for any number of threads; (3) every node updates its velocity and displacement.
+//! blocks, evaluates its kernel ([`crate::kernels::solid::respond`]) and (2) its forces are
+//! summed at the nodes by the layout's assembly strategy ([`super::mesh_assembly`]: the
+//! node-centric gather, colouring or partitions, notes D §6.3), every node's in one fixed
+//! order: no atomic read-modify-write, and results are bitwise the same for every strategy
+//! and any number of threads; (3) every node updates its velocity and displacement.
 //!
 //! **Energy balance** (tracked every step): kinetic `K`, elastic strain energy `U`,
 //! hourglass stored energy, foundation energy, the work `W` of the loads and of the
@@ -25,16 +26,12 @@
 
 use std::sync::Arc;
 
-use rayon::prelude::*;
-
+use super::mesh_assembly::Assembler;
 use super::StepError;
 use crate::analysis::mesh_model::{elastic, element_place, options};
 use crate::contract::mesh_layout::MeshLayout;
 use crate::kernels::fn1;
 use crate::kernels::solid::{self, Elastic, ElementOptions, ElementResponse, MAX_NODES};
-
-/// Elements below which the element loop runs on one thread.
-const PARALLEL_ELEMENTS: usize = 2048;
 
 /// The energies of the meshes at one time (J).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -115,8 +112,8 @@ pub struct MeshDynamics {
     f_found: Vec<[f64; 3]>,
     /// Net force on constrained components that the constraint supplies (reaction).
     reaction: Vec<[f64; 3]>,
-    /// Element force slots.
-    slots: Vec<[f64; 3]>,
+    /// The assembly's buffers.
+    assembly: Assembler,
     stress: Vec<[f64; 6]>,
     strain: Vec<[f64; 6]>,
     scalars: Vec<ElementScalars>,
@@ -161,7 +158,7 @@ impl MeshDynamics {
             f_ext: vec![[0.0; 3]; n],
             f_found: vec![[0.0; 3]; n],
             reaction: vec![[0.0; 3]; n],
-            slots: vec![[0.0; 3]; layout.total_slots()],
+            assembly: Assembler::new(&layout),
             stress: vec![[0.0; 6]; ne],
             strain: vec![[0.0; 6]; ne],
             scalars: vec![ElementScalars::default(); ne],
@@ -297,14 +294,14 @@ impl MeshDynamics {
                 self.f_found[s.node as usize][k] -= s.k * un * s.n[k];
             }
         }
-        // Element forces into their slots.
+        // Element forces, summed at the nodes by the assembly strategy.
+        self.assembly.begin(&self.f_ext, &self.f_found);
         let (u, v) = (&self.u, &self.v);
         for (bi, b) in l.blocks.iter().enumerate() {
             let ev = &self.evals[bi];
             let npe = b.kind.nodes();
             let e0 = b.first_element;
             let ne = b.elements();
-            let slots = &mut self.slots[b.first_slot..b.first_slot + ne * npe];
             let stress = &mut self.stress[e0..e0 + ne];
             let strain = &mut self.strain[e0..e0 + ne];
             let scalars = &mut self.scalars[e0..e0 + ne];
@@ -341,26 +338,12 @@ impl MeshDynamics {
                     min_jacobian: r.min_jacobian,
                 };
             };
-            if ne >= PARALLEL_ELEMENTS {
-                slots
-                    .par_chunks_mut(npe)
-                    .zip(stress.par_iter_mut())
-                    .zip(strain.par_iter_mut())
-                    .zip(scalars.par_iter_mut())
-                    .enumerate()
-                    .with_min_len(256)
-                    .for_each(|(e, (((fs, st), sn), sc))| one(e, fs, st, sn, sc));
-            } else {
-                for (e, (((fs, st), sn), sc)) in slots
-                    .chunks_mut(npe)
-                    .zip(stress.iter_mut())
-                    .zip(strain.iter_mut())
-                    .zip(scalars.iter_mut())
-                    .enumerate()
-                {
-                    one(e, fs, st, sn, sc);
-                }
-            }
+            self.assembly.elements(
+                l,
+                bi,
+                (&mut *stress, &mut *strain, &mut *scalars),
+                |e, fs, (st, sn, sc)| one(e, fs, st, sn, sc),
+            );
             // An inverted element stops the run where it happened.
             if let Some(e) = scalars
                 .iter()
@@ -376,46 +359,14 @@ impl MeshDynamics {
                 });
             }
         }
-        // Node-centric gather and the accelerations.
-        let slots = &self.slots;
-        let f_ext = &self.f_ext;
-        let f_found = &self.f_found;
-        let gather = |n: usize, a: &mut [f64; 3], r: &mut [f64; 3]| {
-            let mut f = [
-                f_ext[n][0] + f_found[n][0],
-                f_ext[n][1] + f_found[n][1],
-                f_ext[n][2] + f_found[n][2],
-            ];
-            for &s in &l.slots[l.first[n] as usize..l.first[n + 1] as usize] {
-                let fe = slots[s as usize];
-                for k in 0..3 {
-                    f[k] -= fe[k];
-                }
-            }
-            let inv_m = 1.0 / l.mass[n];
-            let c = l.constrained[n];
-            for k in 0..3 {
-                if c[k] {
-                    // The constraint supplies m a − f (a is the prescribed acceleration).
-                    r[k] = l.mass[n] * a[k] - f[k];
-                } else {
-                    a[k] = f[k] * inv_m;
-                    r[k] = 0.0;
-                }
-            }
-        };
-        if l.nodes() >= PARALLEL_ELEMENTS {
-            self.a
-                .par_iter_mut()
-                .zip(self.reaction.par_iter_mut())
-                .enumerate()
-                .with_min_len(512)
-                .for_each(|(n, (a, r))| gather(n, a, r));
-        } else {
-            for (n, (a, r)) in self.a.iter_mut().zip(self.reaction.iter_mut()).enumerate() {
-                gather(n, a, r);
-            }
-        }
+        // The nodal sums and the accelerations.
+        self.assembly.finish(
+            l,
+            &self.f_ext,
+            &self.f_found,
+            &mut self.a,
+            &mut self.reaction,
+        );
         for (n, a) in self.a.iter().enumerate() {
             if !(a[0].is_finite() && a[1].is_finite() && a[2].is_finite()) {
                 return Err(StepError::Mesh {

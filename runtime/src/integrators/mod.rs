@@ -16,6 +16,7 @@
 
 pub mod beam_forces;
 pub mod common;
+pub mod mesh_assembly;
 pub mod mesh_dynamics;
 pub mod natural;
 pub mod partitioning;
