@@ -451,7 +451,7 @@ fn pool_allocations<R: Send>(pool: &rayon::ThreadPool, f: impl FnOnce() -> R + S
 }
 
 /// Each assembly strategy's steps (element pass, assembly, node passes, update, energy) do
-/// not allocate, on any thread: a hex8 block above the parallel threshold with 5 partitions,
+/// not allocate, on any thread: a hex8 block above the parallel threshold with 4 partitions,
 /// in a pool of 2 threads, and a small block on the serial paths.
 #[test]
 fn mesh_steps_do_not_allocate_with_any_assembly() {
@@ -473,6 +473,7 @@ fn mesh_steps_do_not_allocate_with_any_assembly() {
             let options = AssemblyOptions {
                 strategy,
                 partition_elements: 460,
+                max_interface: 1.0,
                 ..AssemblyOptions::default()
             };
             let l = Arc::new(mesh_model::build_with(&meshes, options).unwrap());
@@ -495,7 +496,7 @@ fn mesh_steps_do_not_allocate_with_any_assembly() {
             );
             assert!(st.energy.strain > 0.0, "the load deforms the block");
             if nx == 16 {
-                assert_eq!(l.assembly.blocks[0].partitions(), 5);
+                assert_eq!(l.assembly.blocks[0].partitions(), 4);
             }
         }
     }

@@ -441,6 +441,7 @@ model strategies {{
                 strategy,
                 colour_group: group,
                 partition_elements,
+                max_interface: 1.0,
                 ..AssemblyOptions::default()
             };
             let l = mesh_model::build_with(&meshes, options(Assembly::Gather)).expect("valid");

@@ -11,10 +11,11 @@
 //!    element). Colouring reaches a node in this order (colour after colour; a group's
 //!    elements in order), so summing the slots in this order gives bitwise what colouring
 //!    gives.
-//! 4. **Partitions** (per block): `round(elements / partition_elements)` contiguous runs of
-//!    elements (at least 1, at most `max_partitions`; never depending on the threads). A
-//!    node whose elements all lie in one partition is interior to it, any other an
-//!    interface node. Each partition evaluates its elements in the canonical order, so its
+//! 4. **Partitions** (per block): contiguous runs of elements, as many as a power of two
+//!    that keeps at least `partition_elements` elements per partition, at most
+//!    `max_partitions`, and at most `max_interface` of the nodes on the interface (the
+//!    number depends on the mesh and the options, never on the threads). A node whose
+//!    elements all lie in one partition is interior to it, any other an interface node. Each partition evaluates its elements in the canonical order, so its
 //!    interior nodes receive their forces in that order; an interface node's forces go to
 //!    its interface slots, one per incidence in the canonical order, and are summed after.
 
@@ -60,22 +61,9 @@ pub fn build(l: &mut MeshLayout, options: AssemblyOptions) {
     for (b, p) in l.blocks.iter().zip(blocks.iter_mut()) {
         let npe = b.kind.nodes();
         let ne = b.elements();
-        let count = if ne == 0 {
-            0
-        } else {
-            ((ne as f64 / options.partition_elements.max(1) as f64).round() as usize)
-                .clamp(1, options.max_partitions.max(1))
-                .min(ne)
-        };
-        p.parts = (0..=count)
-            .map(|k| (k * ne / count.max(1)) as u32)
-            .collect();
-        let mut part_of = vec![0u32; ne];
-        for k in 0..count {
-            for e in p.parts[k]..p.parts[k + 1] {
-                part_of[e as usize] = k as u32;
-            }
-        }
+        let count = partition_count(b, &first, &slots, &options);
+        p.parts = bounds(ne, count);
+        let part_of = parts_of(&p.parts);
         let mut order: Vec<u32> = (0..ne as u32).collect();
         for k in 0..count {
             order[p.parts[k] as usize..p.parts[k + 1] as usize]
@@ -111,6 +99,51 @@ pub fn build(l: &mut MeshLayout, options: AssemblyOptions) {
         interface_nodes,
         interface_first,
     };
+}
+
+/// The number of partitions of block `b`: the most, as a power of two, that leaves every
+/// partition at least `partition_elements` elements, is at most `max_partitions`, and
+/// makes at most `max_interface` of the block's nodes interface nodes; at least 1 (0
+/// without elements). It depends on the mesh and the options only.
+fn partition_count(b: &ElementBlock, first: &[u32], slots: &[u32], o: &AssemblyOptions) -> usize {
+    let ne = b.elements();
+    if ne == 0 {
+        return 0;
+    }
+    let most = (ne / o.partition_elements.max(1)).clamp(1, o.max_partitions.max(1));
+    let mut count = 1 << most.ilog2();
+    while count > 1 {
+        let part_of = parts_of(&bounds(ne, count));
+        let npe = b.kind.nodes();
+        let interface = (b.first_node..b.first_node + b.nodes)
+            .filter(|&n| {
+                let row = &slots[first[n] as usize..first[n + 1] as usize];
+                let part = |s: u32| part_of[(s as usize - b.first_slot) / npe];
+                row.iter().any(|&s| part(s) != part(row[0]))
+            })
+            .count();
+        if interface as f64 <= o.max_interface * b.nodes as f64 {
+            break;
+        }
+        count /= 2;
+    }
+    count
+}
+
+/// The bounds of `count` contiguous partitions of `ne` elements, as equal as can be.
+fn bounds(ne: usize, count: usize) -> Vec<u32> {
+    (0..=count)
+        .map(|k| (k * ne / count.max(1)) as u32)
+        .collect()
+}
+
+/// The partition of every element, from the partitions' bounds.
+fn parts_of(bounds: &[u32]) -> Vec<u32> {
+    let mut part_of = vec![0u32; *bounds.last().unwrap_or(&0) as usize];
+    for (k, w) in bounds.windows(2).enumerate() {
+        part_of[w[0] as usize..w[1] as usize].fill(k as u32);
+    }
+    part_of
 }
 
 /// Every node's element slots, ascending, as compressed rows.
@@ -292,23 +325,50 @@ mod tests {
             (Box::new(|e| e) as Box<dyn Fn(usize) -> usize>, "natural"),
             (Box::new(shuffled), "shuffled"),
         ] {
-            for (group, parts) in [(1, 100), (8, 64), (5, 1000), (1, 1)] {
+            for (group, parts, interface) in [
+                (1, 100, 1.0),
+                (8, 64, 1.0),
+                (5, 1000, 1.0),
+                (1, 1, 1.0),
+                (4, 50, 0.2),
+            ] {
                 let mut l = grid(nx, ny, &perm);
                 let opts = AssemblyOptions {
                     colour_group: group,
                     partition_elements: parts,
                     max_partitions: 64,
+                    max_interface: interface,
                     ..AssemblyOptions::default()
                 };
                 build(&mut l, opts);
                 let colours = check(&l);
                 let p = &l.assembly.blocks[0];
-                assert_eq!(
-                    p.partitions(),
-                    (ne as f64 / parts as f64).round().clamp(1.0, 64.0) as usize
-                );
+                // the most partitions (a power of two) allowed by the size and the interface
+                let most = (ne / parts).clamp(1, 64);
+                let count = p.partitions();
+                assert!(count.is_power_of_two() && count <= most);
+                let share =
+                    |l: &MeshLayout| l.assembly.interface_nodes.len() as f64 / l.nodes() as f64;
+                assert!(share(&l) <= interface, "{}", share(&l));
+                if 2 * count <= most {
+                    let mut twice = grid(nx, ny, &perm);
+                    build(
+                        &mut twice,
+                        AssemblyOptions {
+                            max_partitions: 2 * count,
+                            max_interface: 1.0,
+                            ..opts
+                        },
+                    );
+                    assert_eq!(twice.assembly.blocks[0].partitions(), 2 * count);
+                    assert!(share(&twice) > interface, "{name}: more partitions fit");
+                }
                 if name == "natural" && group == 1 {
-                    assert_eq!(colours, 4, "{name}");
+                    assert_eq!(colours, 4);
+                }
+                if interface < 1.0 {
+                    // the interface limit, not the size, sets the count here
+                    assert!(count < 8, "{name}: {count}");
                 }
                 if p.partitions() > 1 {
                     assert!(!l.assembly.interface_nodes.is_empty());

@@ -18,8 +18,10 @@
 pub enum Assembly {
     /// Node-centric gather (strategy B): every element writes its nodal forces into its own
     /// slots, then every node sums its slots in the plan's order. Two passes over
-    /// `Σ nodes per element` slots; no shared writes. The default: the fastest in the
-    /// measurements of BENCHMARKS.md "The assembly strategies side by side".
+    /// `Σ nodes per element` slots; no shared writes; both passes split evenly for any
+    /// number of threads. The default: in BENCHMARKS.md "The assembly strategies side by
+    /// side" the others are no faster beyond the noise, and slower where the step is
+    /// bandwidth-bound.
     #[default]
     Gather,
     /// Colouring (strategy D): colour after colour, the elements of a colour (node-disjoint
@@ -27,8 +29,8 @@ pub enum Assembly {
     /// No slots, but every colour is a sweep over the mesh.
     Colouring,
     /// Per-thread partitions with an interface sum (strategy E, substructuring): the
-    /// elements split into a fixed number of contiguous partitions (fixed by the element
-    /// count, not by the threads); each partition, in parallel, subtracts its forces from
+    /// elements split into a fixed number of contiguous partitions (fixed by the mesh, not
+    /// by the threads); each partition, in parallel, subtracts its forces from
     /// its interior nodes directly and writes those at interface nodes to interface slots,
     /// which are then summed per node in partition-independent fixed order.
     Partitions,
@@ -46,29 +48,28 @@ impl Assembly {
             Assembly::Partitions => "partitions",
         }
     }
-
-    /// The strategy of a [`Assembly::name`].
-    pub fn from_name(s: &str) -> Option<Assembly> {
-        Assembly::ALL.into_iter().find(|a| a.name() == s)
-    }
 }
 
 /// What fixes the assembly plans of a layout. The plans, and so the canonical summation
 /// order, depend on these options and on the mesh only — never on the number of threads.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct AssemblyOptions {
     /// The strategy the integrator runs (every plan is built whatever it is, so that a
     /// layout's strategy can be switched on a copy).
     pub strategy: Assembly,
     /// Elements per colour group: runs of this many consecutive elements are coloured as
     /// one (1: plain element colouring). Larger groups keep the neighbouring elements of a
-    /// run together (their shared nodes stay in cache) at the price of more colours.
+    /// run together (their shared nodes stay in cache) and need fewer colours, at the price
+    /// of coarser parallel work.
     pub colour_group: usize,
-    /// Elements per partition: a block of `n` elements has `round(n / partition_elements)`
-    /// partitions, at least 1 and at most [`AssemblyOptions::max_partitions`].
+    /// The fewest elements per partition.
     pub partition_elements: usize,
     /// The most partitions of a block.
     pub max_partitions: usize,
+    /// The largest share of a block's nodes that may lie on the partitions' interface: a
+    /// block gets the most partitions (a power of two, within the two limits above) that
+    /// keeps its interface nodes within this share.
+    pub max_interface: f64,
 }
 
 impl Default for AssemblyOptions {
@@ -76,9 +77,10 @@ impl Default for AssemblyOptions {
     fn default() -> Self {
         AssemblyOptions {
             strategy: Assembly::default(),
-            colour_group: 32,
-            partition_elements: 8192,
+            colour_group: 256,
+            partition_elements: 2048,
             max_partitions: 64,
+            max_interface: 0.1,
         }
     }
 }

@@ -56,6 +56,10 @@ pub trait Columns: Send + Sized {
         Self: 'b;
     /// Number of elements.
     fn len(&self) -> usize;
+    /// Whether there is no element.
+    fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
     /// Split at element `mid`.
     fn split_at(self, mid: usize) -> (Self, Self);
     /// Element `i`'s row.
