@@ -6,7 +6,8 @@
 //! cargo run --release -p mbdc-bench -- startup [MBDC]     `mbdc run` to the first step, cold and warm
 //! cargo run --release -p mbdc-bench -- profile [STEPS]    the generated double pendulum alone (for perf)
 //! cargo run --release -p mbdc-bench -- beams [ROUNDS]      beams: cost per element-step against a rigid body's step and the core's peak
-//! cargo run --release -p mbdc-bench -- meshes [SCALE] [ROUNDS]  meshes: element rates against the measured bandwidth and flop rate
+//! cargo run --release -p mbdc-bench -- meshes [SCALE] [ROUNDS]  meshes: element rates against the measured bandwidth and flop rate, and the assembly strategies
+//! cargo run --release -p mbdc-bench -- meshes-assembly [SCALE] [ROUNDS]  the assembly strategies side by side alone
 //! ```
 //!
 //! Timings are interleaved rounds (every candidate once per round, in turn) and the best of
@@ -55,6 +56,10 @@ fn main() {
             args.get(1).and_then(|s| s.parse().ok()).unwrap_or(0.1),
             args.get(2).and_then(|s| s.parse().ok()).unwrap_or(3),
         ),
+        Some("meshes-assembly") => meshes::assembly_only(
+            args.get(1).and_then(|s| s.parse().ok()).unwrap_or(0.1),
+            args.get(2).and_then(|s| s.parse().ok()).unwrap_or(3),
+        ),
         Some("meshes-memory") => meshes::memory_child(
             args.get(1).map(String::as_str).unwrap_or("Hex8Full"),
             args.get(2).and_then(|s| s.parse().ok()).unwrap_or(1000),
@@ -69,7 +74,7 @@ fn main() {
         ),
         _ => {
             eprintln!(
-                "usage: mbdc-bench steps [ROUNDS] | size | startup [MBDC] | profile [STEPS] | beams [ROUNDS] | meshes [SCALE] [ROUNDS]"
+                "usage: mbdc-bench steps [ROUNDS] | size | startup [MBDC] | profile [STEPS] | beams [ROUNDS] | meshes [SCALE] [ROUNDS] | meshes-assembly [SCALE] [ROUNDS]"
             );
             std::process::exit(2);
         }

@@ -7,12 +7,16 @@
 //! hourglass), hex8 2×2×2, tet4 and quad4 meshes of 10³ … 10⁵ (10⁶ with `SCALE ≥ 1`)
 //! elements the whole step's cost on one thread, as element updates per second and as
 //! fractions of the bandwidth and flop bounds, two threads against one at the largest size,
-//! and the memory per element.
+//! and the memory per element; then the assembly strategies side by side (element rates
+//! with 1 and 2 threads on the same meshes, [`assembly_strategies`]; also alone as
+//! `meshes-assembly [SCALE] [ROUNDS]`).
 //!
-//! hex8 one-point has no option in the language yet (`mesh_model::options` gives every hex8
-//! block 2×2×2 integration), so it runs through [`Mirror`], a copy of
-//! `MeshDynamics::step`'s passes with the element options chosen here; the mirror is checked
-//! bitwise against `MeshDynamics` and timed side by side with it on hex8 2×2×2.
+//! In the rates table hex8 one-point runs through [`Mirror`], a copy of
+//! `MeshDynamics::step`'s passes with the element options chosen here (it predates the
+//! language's `integration reduced`, and is kept so that the table stays comparable with
+//! the recorded one); the mirror is checked bitwise against `MeshDynamics` and timed side
+//! by side with it on hex8 2×2×2. The strategies table runs `MeshDynamics` on every type,
+//! hex8 one-point through the language's `integration reduced; hourglass viscous(0.1)`.
 
 // Kernel-style loops index several per-node arrays with one counter.
 #![allow(clippy::needless_range_loop)]
@@ -26,9 +30,11 @@ use mbdc_runtime::integrators::mesh_dynamics::MeshDynamics;
 use mbdc_runtime::integrators::MeshState;
 use mbdc_runtime::mesh_layout::MeshLayout;
 use mbdc_runtime::mesh_model;
+use mbdc_runtime::mesh_plan::{Assembly, AssemblyOptions};
 use mbdc_runtime::solid::{
     self, Elastic, ElementOptions, ElementResponse, Hourglass, Integration, MAX_NODES,
 };
+use mbdc_runtime::study::thread_cpu_time;
 use rayon::prelude::*;
 
 /// Bytes in a GiB.
@@ -259,7 +265,13 @@ impl Type {
                 let nx = cells.cbrt().round() as usize;
                 let ny = (cells / nx as f64).sqrt().round() as usize;
                 let nz = (cells / (nx * ny) as f64).round() as usize;
-                let kind = if self == Type::Tet4 { "tet4" } else { "hex8" };
+                let kind = match self {
+                    Type::Tet4 => "tet4",
+                    Type::Hex8OnePoint => {
+                        "hex8\n    integration reduced\n    hourglass viscous(0.1)"
+                    }
+                    _ => "hex8",
+                };
                 let text = format!(
                     "model bench {{\n  {material}\n  mesh m {{\n    element {kind}\n    generate box(origin: (0, 0, 0) m, size: ({}, {}, {}) m, divisions: ({nx}, {ny}, {nz}))\n    material steel\n    set bottom = nodes(z == 0)\n    fix bottom\n  }}\n  {simulate}\n}}\n",
                     nx as f64 * 0.01,
@@ -865,5 +877,190 @@ pub fn meshes(scale: f64, rounds: usize) {
             }
         }
     }
+    assembly_strategies(&pools, false, rounds, seconds);
+    println!("\nload average at the end: {}", load_average());
+}
+
+// ---------------------------------------------------------------------------------------
+// Assembly strategies side by side
+
+/// The assembly candidates: every strategy with the default plan options, and colouring of
+/// single elements (groups of 1) beside colouring of the default groups.
+fn assembly_candidates() -> Vec<(String, AssemblyOptions)> {
+    let d = AssemblyOptions::default();
+    let with = |strategy| AssemblyOptions { strategy, ..d };
+    vec![
+        ("gather".into(), with(Assembly::Gather)),
+        (
+            "colouring, single elements".into(),
+            AssemblyOptions {
+                colour_group: 1,
+                ..with(Assembly::Colouring)
+            },
+        ),
+        (
+            format!("colouring, groups of {}", d.colour_group),
+            with(Assembly::Colouring),
+        ),
+        ("partitions".into(), with(Assembly::Partitions)),
+    ]
+}
+
+/// One candidate's stepper and timings.
+struct Strategy {
+    label: String,
+    options: AssemblyOptions,
+    /// Colours, partitions and interface nodes of its plan.
+    plan: String,
+    md: MeshDynamics,
+    /// Best wall seconds per step with 1 and 2 threads.
+    best: [f64; 2],
+    /// Best CPU seconds per step of the 1-thread pool's thread.
+    best_cpu: f64,
+    /// CPU seconds and wall seconds of the 2-thread timings.
+    cpu_wall: [f64; 2],
+}
+
+/// The `meshes-assembly` subcommand (also the end of `meshes`, without the 10⁶ rows): the
+/// assembly strategies side by side on the same meshes (hex8 one-point, hex8 2×2×2, tet4,
+/// quad4 of 10⁴ and 10⁵ elements; with `million` hex8 one-point and tet4 of 10⁶), whole
+/// `MeshDynamics::step`s,
+/// best of `rounds` interleaved rounds: with 1 thread by the pool thread's CPU time (which
+/// the other processes of a shared machine do not inflate) and by wall time, with 2
+/// threads by wall time beside the cores the process obtained. Before timing, the
+/// candidates that share plan options (all strategies with the default options) are
+/// checked to give bitwise the same state after 3 steps.
+pub fn assembly_strategies(
+    pools: &[rayon::ThreadPool; 2],
+    million: bool,
+    rounds: usize,
+    seconds: f64,
+) {
+    println!(
+        "\n## The assembly strategies side by side\n\nbest of {rounds} interleaved rounds, about {seconds} s per timing; load average {}\n",
+        load_average()
+    );
+    println!("| type | elements | strategy | plan | M element-steps per CPU s, 1 thread | / gather | M element-steps/s (wall), 1 thread | / gather | M element-steps/s (wall), 2 threads | / gather | cores obtained (2 threads) |");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|");
+    let mut sizes = vec![10_000, 100_000];
+    if million {
+        sizes.push(1_000_000);
+    }
+    for &n in &sizes {
+        let types: &[Type] = if n >= 1_000_000 {
+            &[Type::Hex8OnePoint, Type::Tet4]
+        } else {
+            &Type::ALL
+        };
+        for &ty in types {
+            let (scene, elements) = compile(ty, n);
+            let h = scene.simulate.step;
+            let mut cands: Vec<Strategy> = assembly_candidates()
+                .into_iter()
+                .map(|(label, options)| {
+                    let l = Arc::new(
+                        mesh_model::build_with(&scene.meshes, options).expect("a valid mesh"),
+                    );
+                    let p = &l.assembly;
+                    let b = &p.blocks[0];
+                    let plan = match options.strategy {
+                        Assembly::Gather => String::new(),
+                        Assembly::Colouring => format!("{} colours", b.colours),
+                        Assembly::Partitions => format!(
+                            "{} partitions, {:.1} % interface nodes",
+                            b.partitions(),
+                            100.0 * p.interface_nodes.len() as f64 / l.nodes() as f64
+                        ),
+                    };
+                    let st = start_state(&l);
+                    Strategy {
+                        label,
+                        options,
+                        plan,
+                        md: MeshDynamics::new(l, h, 0.0, &st).expect("starts"),
+                        best: [f64::INFINITY; 2],
+                        best_cpu: f64::INFINITY,
+                        cpu_wall: [0.0; 2],
+                    }
+                })
+                .collect();
+            drop(scene);
+            // Same plan options, any strategy: bitwise the same state.
+            let mut states: Vec<(AssemblyOptions, MeshState)> = Vec::new();
+            for c in &mut cands {
+                pools[1].install(|| {
+                    for _ in 0..3 {
+                        c.md.advance();
+                    }
+                });
+                let mut st = MeshState::default();
+                c.md.state(&mut st);
+                let key = AssemblyOptions {
+                    strategy: Assembly::Gather,
+                    ..c.options
+                };
+                match states.iter().find(|(k, _)| *k == key) {
+                    Some((_, first)) => assert!(
+                        first.u == st.u && first.v == st.v && first.stress == st.stress,
+                        "{}: {} departs from the first strategy with its plan options",
+                        ty.label(),
+                        c.label
+                    ),
+                    None => states.push((key, st)),
+                }
+            }
+            drop(states);
+            let steps = calibrate(&mut cands[0].md, &pools[0], seconds);
+            for _ in 0..rounds {
+                for c in cands.iter_mut() {
+                    // 1 thread: the pool thread's CPU time (what other processes take
+                    // does not count) and the wall time
+                    let (cpu, wall) = pools[0].install(|| {
+                        let (c0, w0) = (thread_cpu_time(), Instant::now());
+                        for _ in 0..steps {
+                            c.md.advance();
+                        }
+                        (thread_cpu_time() - c0, w0.elapsed().as_secs_f64())
+                    });
+                    c.best_cpu = c.best_cpu.min(cpu / steps as f64);
+                    c.best[0] = c.best[0].min(wall / steps as f64);
+                    // 2 threads: wall time, and the cores the process obtained
+                    let (cpu, wall) = (cpu_seconds(), Instant::now());
+                    let t = time(&mut c.md, &pools[1], steps);
+                    c.best[1] = c.best[1].min(t);
+                    c.cpu_wall[0] += cpu_seconds() - cpu;
+                    c.cpu_wall[1] += wall.elapsed().as_secs_f64();
+                }
+            }
+            let (gather_cpu, gather) = (cands[0].best_cpu, cands[0].best);
+            for c in &cands {
+                let rate = |t: f64| elements as f64 / t / 1e6;
+                println!(
+                    "| {} | {elements} | {} | {} | {:.3} | {:.2} | {:.3} | {:.2} | {:.3} | {:.2} | {:.2} |",
+                    ty.label(),
+                    c.label,
+                    c.plan,
+                    rate(c.best_cpu),
+                    gather_cpu / c.best_cpu,
+                    rate(c.best[0]),
+                    gather[0] / c.best[0],
+                    rate(c.best[1]),
+                    gather[1] / c.best[1],
+                    c.cpu_wall[0] / c.cpu_wall[1]
+                );
+            }
+        }
+    }
+}
+
+/// The `meshes-assembly` subcommand: [`assembly_strategies`] alone, with the 10⁶-element
+/// rows when `scale ≥ 1`.
+pub fn assembly_only(scale: f64, rounds: usize) {
+    let pools = [pool(1), pool(2)];
+    println!(
+        "# Meshes: the assembly strategies\n\nscale {scale}; load average at the start {}",
+        load_average()
+    );
+    assembly_strategies(&pools, scale >= 1.0, rounds, 0.25);
     println!("\nload average at the end: {}", load_average());
 }

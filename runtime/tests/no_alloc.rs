@@ -1,6 +1,7 @@
 //! The per-step `System` methods of the interpreter do not allocate: checked with a
 //! counting global allocator (per thread) on a scene that uses every joint kind, every
-//! force element, a lock and every supported contact pair.
+//! force element, a lock and every supported contact pair; and the meshes' steps with every
+//! assembly strategy, counted on every thread of the pool that runs them.
 
 use mbdc_runtime::interp::{Interp, IDENTITY};
 use mbdc_runtime::math::{axis_angle, quat_array};
@@ -524,5 +525,66 @@ fn tied_mesh_steps_do_not_allocate() {
         // the system's hub is the hub with its tied nodes, its reference point pulled
         // towards them
         assert!(st.pose[0].r.x > -0.09, "{name}: {:?}", st.pose[0].r);
+    }
+}
+
+/// Allocations on the calling thread and on every thread of `pool` while `f` runs in it.
+fn pool_allocations<R: Send>(pool: &rayon::ThreadPool, f: impl FnOnce() -> R + Send) -> (R, usize) {
+    let count =
+        |p: &rayon::ThreadPool| -> usize { p.broadcast(|_| COUNT.with(|c| c.get())).iter().sum() };
+    let before = count(pool);
+    let (r, here) = allocations(|| pool.install(f));
+    (r, here + count(pool) - before)
+}
+
+/// Each assembly strategy's steps (element pass, assembly, node passes, update, energy) do
+/// not allocate, on any thread: a hex8 block above the parallel threshold with 4 partitions,
+/// in a pool of 2 threads, and a small block on the serial paths.
+#[test]
+fn mesh_steps_do_not_allocate_with_any_assembly() {
+    use mbdc_runtime::integrators::mesh_dynamics::MeshDynamics;
+    use mbdc_runtime::integrators::MeshState;
+    use mbdc_runtime::mesh_model;
+    use mbdc_runtime::mesh_plan::{Assembly, AssemblyOptions};
+    use std::sync::Arc;
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(2)
+        .build()
+        .unwrap();
+    // The counting itself (and an empty task) allocates nothing on the pool's threads.
+    let ((), base) = pool_allocations(&pool, || ());
+    assert_eq!(base, 0, "the count's own allocations");
+    for (nx, ny, nz) in [(4, 2, 2), (16, 12, 12)] {
+        let meshes = vec![box_mesh(nx, ny, nz)];
+        for strategy in Assembly::ALL {
+            let options = AssemblyOptions {
+                strategy,
+                partition_elements: 460,
+                max_interface: 1.0,
+                ..AssemblyOptions::default()
+            };
+            let l = Arc::new(mesh_model::build_with(&meshes, options).unwrap());
+            let mut md = MeshDynamics::new(l.clone(), 1e-7, 0.0, &MeshState::default()).unwrap();
+            let mut st = MeshState::default();
+            // one step outside the count (the state's buffers take their size, the pool's
+            // queues grow)
+            pool.install(|| md.step()).unwrap();
+            md.state(&mut st);
+            let ((), count) = pool_allocations(&pool, || {
+                for _ in 0..10 {
+                    md.step().unwrap();
+                    md.state(&mut st);
+                }
+            });
+            let name = strategy.name();
+            assert_eq!(
+                count, 0,
+                "allocations in {name} mesh steps ({nx}×{ny}×{nz})"
+            );
+            assert!(st.energy.strain > 0.0, "the load deforms the block");
+            if nx == 16 {
+                assert_eq!(l.assembly.blocks[0].partitions(), 4);
+            }
+        }
     }
 }

@@ -1,7 +1,8 @@
 //! Meshes for the explicit method: the scene's meshes flattened into a
 //! [`MeshLayout`] (nodes numbered once, one element block per mesh, lumped masses, the
-//! boundary conditions and loads as node tables, the node → element-slot plan), and the
-//! critical step of the central-difference method over all elements.
+//! boundary conditions and loads as node tables, the node → element-slot plan and the other
+//! assembly strategies' plans, [`super::assembly_plan`]), and the critical step of the
+//! central-difference method over all elements.
 //!
 //! - Lumped mass: each element's [`solid::lumped_masses`] summed at its nodes.
 //! - `fix` and `displace`: per node component, the last condition written wins (`fix`
@@ -18,9 +19,11 @@
 
 use std::collections::HashMap;
 
+use super::assembly_plan;
 use crate::contract::mesh_layout::{
     ElementBlock, FoundationSpring, LoadGroup, MeshLayout, Prescribed,
 };
+use crate::contract::mesh_plan::AssemblyOptions;
 use crate::contract::scene::{
     ElementKind, Fn1, HourglassControl, Material, Mesh, MeshCondition, MeshFormulation,
     MeshIntegration, MeshKinematics,
@@ -153,12 +156,22 @@ pub fn element_place(l: &MeshLayout, b: &ElementBlock, e: usize) -> String {
     )
 }
 
-/// Build the layout of `meshes` (empty input gives an empty layout).
+/// Build the layout of `meshes` (empty input gives an empty layout), with the default
+/// assembly strategy and plans ([`AssemblyOptions::default`]).
 ///
 /// # Errors
 /// A degenerate or inverted element (its index, nodes and centroid), a node index out of
 /// range, a material or thickness that is not positive and finite.
 pub fn build(meshes: &[Mesh]) -> Result<MeshLayout, MeshError> {
+    build_with(meshes, AssemblyOptions::default())
+}
+
+/// [`build`] with the assembly strategy and the options of its plans chosen by the caller
+/// (every strategy gives bitwise the same results; they differ in speed).
+///
+/// # Errors
+/// As [`build`].
+pub fn build_with(meshes: &[Mesh], assembly: AssemblyOptions) -> Result<MeshLayout, MeshError> {
     let mut l = MeshLayout::default();
     let mut first_slot = 0usize;
     let mut first_element = 0usize;
@@ -281,7 +294,7 @@ pub fn build(meshes: &[Mesh]) -> Result<MeshLayout, MeshError> {
         first_element += block.elements();
         l.blocks.push(block);
     }
-    plan(&mut l);
+    assembly_plan::build(&mut l, assembly);
     Ok(l)
 }
 
@@ -574,32 +587,6 @@ fn face_integrals(
             (shares, [total[0] / len, total[1] / len, total[2] / len])
         }
     }
-}
-
-/// The node → element-slot plan: for every node, the slots of the elements that touch it,
-/// in increasing order.
-fn plan(l: &mut MeshLayout) {
-    let n = l.x0.len();
-    let mut count = vec![0u32; n + 1];
-    for b in &l.blocks {
-        for &g in &b.conn {
-            count[g as usize + 1] += 1;
-        }
-    }
-    for i in 0..n {
-        count[i + 1] += count[i];
-    }
-    let mut next = count.clone();
-    let mut slots = vec![0u32; l.total_slots()];
-    for b in &l.blocks {
-        for (i, &g) in b.conn.iter().enumerate() {
-            let at = &mut next[g as usize];
-            slots[*at as usize] = (b.first_slot + i) as u32;
-            *at += 1;
-        }
-    }
-    l.first = count;
-    l.slots = slots;
 }
 
 /// The central-difference limit of a mesh system.

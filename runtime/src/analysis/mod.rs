@@ -5,7 +5,9 @@
 //! - [`beam_model`]: beams as bodies — nodes with their lumped inertia, clamps and pins as
 //!   joints, and the table of elements between them.
 //! - [`mesh_model`]: finite-element meshes flattened for the explicit method (nodes,
-//!   element blocks, lumped masses, conditions as node tables) and their critical step.
+//!   element blocks, lumped masses, conditions as node tables) and their critical step;
+//!   [`assembly_plan`]: the plans of the assembly strategies (colours, canonical order,
+//!   partitions).
 //! - [`tie_model`]: node sets of meshes tied to bodies — the bodies with their tied nodes'
 //!   inertia (reference point at the joint mass centre), the tied nodes as constrained,
 //!   massless mesh nodes.
@@ -19,6 +21,7 @@
 //!
 //! Imports the contract, the kernels and linear algebra; knows no integrator and no writer.
 
+pub mod assembly_plan;
 pub mod beam_model;
 pub mod coordinates;
 pub mod effects;

@@ -2,8 +2,10 @@
 //! every mesh numbered once, one type-homogeneous element block per mesh with its
 //! connectivity, the lumped nodal masses, and the boundary conditions and loads as tables
 //! over nodes. Built once from a scene by [`crate::analysis::mesh_model`]; the topological
-//! plan (which element slots each node sums, notes D §5: fixed in time) is precomputed.
+//! plan (which element slots each node sums, notes D §5: fixed in time) is precomputed, and
+//! so are the plans of the other assembly strategies ([`super::mesh_plan`]).
 
+use super::mesh_plan::AssemblyPlan;
 use super::scene::{ElementKind, Fn1, Material, MeshFormulation};
 
 /// The meshes of a system (empty for a scene without meshes).
@@ -26,8 +28,10 @@ pub struct MeshLayout {
     /// Winkler foundation springs at nodes.
     pub foundation: Vec<FoundationSpring>,
     /// Node → element force slots, compressed rows: node `n` sums the element forces at
-    /// slots `slots[first[n]..first[n + 1]]`, in increasing slot order (a fixed summation
-    /// order: results do not depend on the number of threads).
+    /// slots `slots[first[n]..first[n + 1]]`, in the canonical order of
+    /// [`super::mesh_plan`] (ascending colour, then element: a fixed summation order that
+    /// every assembly strategy follows, so results do not depend on the strategy or on the
+    /// number of threads).
     pub first: Vec<u32>,
     /// See `first`. A slot is `block.first_slot + element · nodes_per_element + local`.
     pub slots: Vec<u32>,
@@ -36,6 +40,8 @@ pub struct MeshLayout {
     pub ties: Vec<MeshTie>,
     /// The bodies that carry tied nodes, each once (empty without ties).
     pub tied_bodies: Vec<TiedBody>,
+    /// The assembly strategy and its plans (colours, partitions, interface).
+    pub assembly: AssemblyPlan,
 }
 
 impl MeshLayout {

@@ -8,7 +8,8 @@
 //! - [`joint_geom`]: the constant geometry of one joint (`JointGeom`), and
 //!   [`joint_kernel`]: the one enum of joint kernels (`JointKernel`) that the interpreter,
 //!   the compiled tables, the code generator and natural partitioning share.
-//! - [`mesh_layout`]: finite-element meshes flattened for the explicit method (`MeshLayout`).
+//! - [`mesh_layout`]: finite-element meshes flattened for the explicit method (`MeshLayout`),
+//!   and [`mesh_plan`]: the assembly strategies and their plans.
 //! - [`math`]: rotation math (Euler parameters, rotation matrices, the Cayley update).
 //!
 //! **Imports nothing else of the crate.** Everything above builds on these types; nothing
@@ -18,5 +19,6 @@ pub mod joint_geom;
 pub mod joint_kernel;
 pub mod math;
 pub mod mesh_layout;
+pub mod mesh_plan;
 pub mod scene;
 pub mod system;

@@ -11,10 +11,11 @@
 //! terms (viscous hourglass control) use the lagged `v^{n+½}` (notes D §1.1 [M]).
 //!
 //! **One step** (no allocation): (1) every element, in parallel over type-homogeneous
-//! blocks, evaluates its kernel ([`crate::kernels::solid::respond`]) into its own force
-//! slots; (2) every node, in parallel, sums its slots in the fixed order of the layout's
-//! plan (node-centric gather, notes D §6.3 B): no atomics, and results are bitwise the same
-//! for any number of threads; (3) every node updates its velocity and displacement.
+//! blocks, evaluates its kernel ([`crate::kernels::solid::respond`]) and (2) its forces are
+//! summed at the nodes by the layout's assembly strategy ([`super::mesh_assembly`]: the
+//! node-centric gather, colouring or partitions, notes D §6.3), every node's in one fixed
+//! order: no atomic read-modify-write, and results are bitwise the same for every strategy
+//! and any number of threads; (3) every node updates its velocity and displacement.
 //!
 //! **Plasticity**: a block whose material is plastic keeps the plastic strain and the
 //! equivalent plastic strain of every integration point (one array per quantity, point
@@ -43,8 +44,7 @@
 
 use std::sync::Arc;
 
-use rayon::prelude::*;
-
+use super::mesh_assembly::{Assembler, Runs};
 use super::StepError;
 use crate::analysis::mesh_model::{elastic, element_place, options, plastic};
 use crate::contract::mesh_layout::ElementBlock;
@@ -54,9 +54,6 @@ use crate::kernels::solid::{
     self, Elastic, ElementOptions, ElementResponse, Plastic, PlasticPoints, PlasticResponse,
     MAX_NODES,
 };
-
-/// Elements below which the element loop runs on one thread.
-const PARALLEL_ELEMENTS: usize = 2048;
 
 /// The energies of the meshes at one time (J).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -196,8 +193,8 @@ pub struct MeshDynamics {
     f_found: Vec<[f64; 3]>,
     /// Net force on constrained components that the constraint supplies (reaction).
     reaction: Vec<[f64; 3]>,
-    /// Element force slots.
-    slots: Vec<[f64; 3]>,
+    /// The assembly's buffers.
+    assembly: Assembler,
     stress: Vec<[f64; 6]>,
     strain: Vec<[f64; 6]>,
     scalars: Vec<ElementScalars>,
@@ -302,7 +299,7 @@ impl MeshDynamics {
             f_ext: vec![[0.0; 3]; n],
             f_found: vec![[0.0; 3]; n],
             reaction: vec![[0.0; 3]; n],
-            slots: vec![[0.0; 3]; layout.total_slots()],
+            assembly: Assembler::new(&layout),
             stress: vec![[0.0; 6]; ne],
             strain: vec![[0.0; 6]; ne],
             scalars: vec![ElementScalars::default(); ne],
@@ -516,14 +513,14 @@ impl MeshDynamics {
                 self.f_found[s.node as usize][k] -= s.k * un * s.n[k];
             }
         }
-        // Element forces into their slots.
+        // Element forces, summed at the nodes by the assembly strategy.
+        self.assembly.begin(&self.f_ext, &self.f_found);
         let (u, v) = (&self.u, &self.v);
         for (bi, b) in l.blocks.iter().enumerate() {
             let ev = &self.evals[bi];
             let npe = b.kind.nodes();
             let e0 = b.first_element;
             let ne = b.elements();
-            let slots = &mut self.slots[b.first_slot..b.first_slot + ne * npe];
             let stress = &mut self.stress[e0..e0 + ne];
             let strain = &mut self.strain[e0..e0 + ne];
             let scalars = &mut self.scalars[e0..e0 + ne];
@@ -560,30 +557,15 @@ impl MeshDynamics {
                     min_jacobian: r.min_jacobian,
                 };
             };
+            let cols = (&mut *stress, &mut *strain, &mut *scalars);
             if let Some(law) = &ev.plastic {
-                // The block's choice: the elastoplastic loop with its points' state.
+                // The block's choice: the elastoplastic evaluation with its points' state.
                 let (ps, pout) = (&mut self.plastic[bi], &mut self.plastic_out[bi]);
-                let outs = (&mut *slots, &mut *stress, &mut *strain, &mut *scalars);
-                plastic_block(l, b, ev, law, (u, v), ps, pout, outs);
-            } else if ne >= PARALLEL_ELEMENTS {
-                slots
-                    .par_chunks_mut(npe)
-                    .zip(stress.par_iter_mut())
-                    .zip(strain.par_iter_mut())
-                    .zip(scalars.par_iter_mut())
-                    .enumerate()
-                    .with_min_len(256)
-                    .for_each(|(e, (((fs, st), sn), sc))| one(e, fs, st, sn, sc));
+                plastic_block(&mut self.assembly, l, bi, ev, law, (u, v), ps, pout, cols);
             } else {
-                for (e, (((fs, st), sn), sc)) in slots
-                    .chunks_mut(npe)
-                    .zip(stress.iter_mut())
-                    .zip(strain.iter_mut())
-                    .zip(scalars.iter_mut())
-                    .enumerate()
-                {
-                    one(e, fs, st, sn, sc);
-                }
+                self.assembly.elements(l, bi, cols, |e, fs, (st, sn, sc)| {
+                    one(e, fs, st, sn, sc)
+                });
             }
             // An inverted element stops the run where it happened.
             if let Some(e) = scalars
@@ -600,46 +582,14 @@ impl MeshDynamics {
                 });
             }
         }
-        // Node-centric gather and the accelerations.
-        let slots = &self.slots;
-        let f_ext = &self.f_ext;
-        let f_found = &self.f_found;
-        let gather = |n: usize, a: &mut [f64; 3], r: &mut [f64; 3]| {
-            let mut f = [
-                f_ext[n][0] + f_found[n][0],
-                f_ext[n][1] + f_found[n][1],
-                f_ext[n][2] + f_found[n][2],
-            ];
-            for &s in &l.slots[l.first[n] as usize..l.first[n + 1] as usize] {
-                let fe = slots[s as usize];
-                for k in 0..3 {
-                    f[k] -= fe[k];
-                }
-            }
-            let inv_m = 1.0 / l.mass[n];
-            let c = l.constrained[n];
-            for k in 0..3 {
-                if c[k] {
-                    // The constraint supplies m a − f (a is the prescribed acceleration).
-                    r[k] = l.mass[n] * a[k] - f[k];
-                } else {
-                    a[k] = f[k] * inv_m;
-                    r[k] = 0.0;
-                }
-            }
-        };
-        if l.nodes() >= PARALLEL_ELEMENTS {
-            self.a
-                .par_iter_mut()
-                .zip(self.reaction.par_iter_mut())
-                .enumerate()
-                .with_min_len(512)
-                .for_each(|(n, (a, r))| gather(n, a, r));
-        } else {
-            for (n, (a, r)) in self.a.iter_mut().zip(self.reaction.iter_mut()).enumerate() {
-                gather(n, a, r);
-            }
-        }
+        // The nodal sums and the accelerations.
+        self.assembly.finish(
+            l,
+            &self.f_ext,
+            &self.f_found,
+            &mut self.a,
+            &mut self.reaction,
+        );
         for (n, a) in self.a.iter().enumerate() {
             if !(a[0].is_finite() && a[1].is_finite() && a[2].is_finite()) {
                 return Err(StepError::Mesh {
@@ -737,41 +687,55 @@ fn gather_element(
     (x0, ue, ve)
 }
 
-/// The per-element outputs of one block: force slots, stress, strain, scalars.
+/// The per-element outputs of one block: stress, strain, scalars.
 type BlockOut<'a> = (
-    &'a mut [[f64; 3]],
     &'a mut [[f64; 6]],
     &'a mut [[f64; 6]],
     &'a mut [ElementScalars],
 );
 
-/// The element loop of an elastoplastic block: every element evaluates
-/// [`solid::respond_plastic`] with its points' slice of the block's plastic state (updated
-/// in place) and leaves its plastic means and work in `pout`. Parallel like the elastic
-/// loop; each element writes only its own slots and state, so results do not depend on the
-/// number of threads.
+/// The element evaluation of an elastoplastic block: every element evaluates
+/// [`solid::respond_plastic`] with its points' run of the block's plastic state (updated in
+/// place) and leaves its plastic means and work in `pout`; the assembler runs the elements
+/// and sums their forces as for an elastic block. Each element writes only its own outputs
+/// and state, so results do not depend on the strategy or the number of threads.
 #[allow(clippy::too_many_arguments)] // the block, its constants, state and outputs
 fn plastic_block(
+    assembly: &mut Assembler,
     l: &MeshLayout,
-    b: &ElementBlock,
+    bi: usize,
     ev: &BlockEval,
     law: &Plastic,
     (u, v): (&[[f64; 3]], &[[f64; 3]]),
     ps: &mut PlasticState,
     pout: &mut [PlasticResponse],
-    (slots, stress, strain, scalars): BlockOut<'_>,
+    (stress, strain, scalars): BlockOut<'_>,
 ) {
+    let b = &l.blocks[bi];
     let npe = b.kind.nodes();
     let np = ev.points;
-    let one = |e: usize,
-               fs: &mut [[f64; 3]],
-               st: &mut [f64; 6],
-               sn: &mut [f64; 6],
-               sc: &mut ElementScalars,
-               po: &mut PlasticResponse,
-               points: PlasticPoints<'_>| {
+    let PlasticState {
+        strain: ep_all,
+        equivalent: eq_all,
+        stress: s_all,
+    } = ps;
+    let cols = (
+        stress,
+        strain,
+        scalars,
+        pout,
+        Runs::new(&mut ep_all[..], np),
+        Runs::new(&mut eq_all[..], np),
+        Runs::new(&mut s_all[..], np),
+    );
+    assembly.elements(l, bi, cols, |e, fs, (st, sn, sc, po, pst, peq, pss)| {
         let (x0, ue, ve) = gather_element(l, b, e, u, v);
         let mut r = ElementResponse::default();
+        let points = PlasticPoints {
+            strain: pst,
+            equivalent: peq,
+            stress: pss,
+        };
         *po = solid::respond_plastic(
             b.kind,
             &ev.opts,
@@ -792,56 +756,5 @@ fn plastic_block(
             hourglass_power: r.hourglass_power,
             min_jacobian: r.min_jacobian,
         };
-    };
-    let PlasticState {
-        strain: ep_all,
-        equivalent: eq_all,
-        stress: s_all,
-    } = ps;
-    if b.elements() >= PARALLEL_ELEMENTS {
-        slots
-            .par_chunks_mut(npe)
-            .zip(stress.par_iter_mut())
-            .zip(strain.par_iter_mut())
-            .zip(scalars.par_iter_mut())
-            .zip(pout.par_iter_mut())
-            .zip(
-                ep_all
-                    .par_chunks_mut(np)
-                    .zip(eq_all.par_chunks_mut(np))
-                    .zip(s_all.par_chunks_mut(np)),
-            )
-            .enumerate()
-            .with_min_len(256)
-            .for_each(|(e, (((((fs, st), sn), sc), po), ((pst, peq), pss)))| {
-                let points = PlasticPoints {
-                    strain: pst,
-                    equivalent: peq,
-                    stress: pss,
-                };
-                one(e, fs, st, sn, sc, po, points)
-            });
-    } else {
-        for (e, (((((fs, st), sn), sc), po), ((pst, peq), pss))) in slots
-            .chunks_mut(npe)
-            .zip(stress.iter_mut())
-            .zip(strain.iter_mut())
-            .zip(scalars.iter_mut())
-            .zip(pout.iter_mut())
-            .zip(
-                ep_all
-                    .chunks_mut(np)
-                    .zip(eq_all.chunks_mut(np))
-                    .zip(s_all.chunks_mut(np)),
-            )
-            .enumerate()
-        {
-            let points = PlasticPoints {
-                strain: pst,
-                equivalent: peq,
-                stress: pss,
-            };
-            one(e, fs, st, sn, sc, po, points);
-        }
-    }
+    });
 }

@@ -19,6 +19,7 @@
 
 pub mod beam_forces;
 pub mod common;
+pub mod mesh_assembly;
 pub mod mesh_dynamics;
 pub mod mesh_ties;
 pub mod natural;
