@@ -25,6 +25,17 @@
 //! Each stop carries the simulated time, step, where it started, the quantity and its value,
 //! the likely cause and what to try. With [`OnFailure::HalveStep`] the run restarts from the
 //! last good frame with half the step, and says so through [`Observer::notice`].
+//!
+//! ## Stopping from outside
+//! After every step the run asks its observer whether to stop
+//! ([`Observer::stop_requested`]; by default never). When it says so, the run ends there as
+//! an interruption, not a failure: the state of that step is handed out as the last frame
+//! (whatever the output rate), and the report's [`RunReport::interrupted`] says by what, at
+//! which time and step. The loop knows nothing of signals: `mbdc run` and the program of a
+//! compiled scene answer from a flag their SIGINT and SIGTERM handlers set
+//! ([`crate::app::StopSignals`]); a program of your own can answer from anything (a cancel
+//! button, a deadline), as long as the answer is cheap — an atomic load — and allocates
+//! nothing, since it is asked once per step.
 
 use crate::contract::scene::MethodSpec;
 use crate::contract::system::{ConstraintEval, Need, RowKind, System};
@@ -114,9 +125,16 @@ pub trait Observer {
     fn progress(&mut self, _t: f64) {}
     /// A message for the user (retries, warnings).
     fn notice(&mut self, _message: &str) {}
+    /// Asked once per step, after the step and the watchdog: `Some(by)` ends the run there
+    /// as an interruption by `by` (a signal's name such as `"SIGINT"`, or the requester's
+    /// words), with the state of that step as the last frame. Called in every step, so it
+    /// must be cheap (an atomic load) and must not allocate. Default: never.
+    fn stop_requested(&mut self) -> Option<&'static str> {
+        None
+    }
 }
 
-pub use crate::driver::output::Failure;
+pub use crate::driver::output::{Failure, Interruption};
 
 impl std::fmt::Display for Failure {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
@@ -145,8 +163,10 @@ pub struct RunReport {
     pub step: f64,
     /// Whether the run reached `duration`.
     pub finished: bool,
-    /// The failure, if it stopped early.
+    /// The failure, if it stopped early because it could not continue.
     pub failure: Option<Failure>,
+    /// The interruption, if it was stopped from outside ([`Observer::stop_requested`]).
+    pub interrupted: Option<Interruption>,
     /// Retries with a halved step.
     pub retries: u32,
     /// Largest holonomic violation seen after any step, and the joint.
@@ -316,6 +336,7 @@ pub fn run<S: System>(sys: &S, cfg: &RunConfig, obs: &mut dyn Observer) -> RunRe
         step: h,
         finished: false,
         failure: None,
+        interrupted: None,
         retries: 0,
         max_violation: (0.0, String::new()),
         max_relative_violation: (0.0, String::new(), 0.0),
@@ -422,17 +443,31 @@ pub fn run<S: System>(sys: &S, cfg: &RunConfig, obs: &mut dyn Observer) -> RunRe
                     }
                 }
             }
+            // a stop from outside, asked after every step but the last (a run that reached
+            // its end has finished, whatever arrives then)
+            if k < n_total {
+                if let Some(by) = obs.stop_requested() {
+                    if k % every != 0 {
+                        // the state where the run stops is its last frame
+                        emit(sys, &st, report.steps, &mut probe, obs, &ew);
+                    }
+                    report.interrupted = Some(Interruption {
+                        by: by.to_string(),
+                        time: st.t,
+                        step: report.steps,
+                    });
+                    report.t_end = st.t;
+                    report.stats = stats(integ.as_ref());
+                    break 'attempt;
+                }
+            }
             if k % 16 == 0 {
                 obs.progress(st.t);
             }
         }
         report.finished = true;
         report.t_end = start.t;
-        report.stats = integ
-            .stats()
-            .into_iter()
-            .map(|(n, v)| (n.to_string(), v))
-            .collect();
+        report.stats = stats(integ.as_ref());
         if let Some(m) = integ.end_notice() {
             report.warnings.push(m);
         }
@@ -457,6 +492,15 @@ pub fn run<S: System>(sys: &S, cfg: &RunConfig, obs: &mut dyn Observer) -> RunRe
         obs.notice(w);
     }
     report
+}
+
+/// The method's statistics, named.
+fn stats<S: System>(integ: &dyn integrators::Integrator<S>) -> Vec<(String, f64)> {
+    integ
+        .stats()
+        .into_iter()
+        .map(|(n, v)| (n.to_string(), v))
+        .collect()
 }
 
 /// Above this fraction of a joint's own length ([`joint_lengths`]), the run's violation is
@@ -824,11 +868,17 @@ impl Observer for ToWriter<'_> {
     fn notice(&mut self, m: &str) {
         self.inner.notice(m);
     }
+    fn stop_requested(&mut self) -> Option<&'static str> {
+        self.inner.stop_requested()
+    }
 }
 
 /// Run `sys` and write its output folder (`bodies.csv`, `energy.csv`, `constraints.csv` as
-/// `spec` asks, and `summary.json`, also when the run fails). Frames are written while the
-/// run proceeds, so a run that is stopped keeps everything up to its last frame.
+/// `spec` asks, and `summary.json`, also when the run fails or is interrupted). Frames are
+/// written while the run proceeds, so a run that is stopped keeps everything up to its last
+/// frame. `progress` is asked after every step whether to stop
+/// ([`Observer::stop_requested`]): then every frame queued so far is written and flushed,
+/// and `summary.json` says `"status": "interrupted"` with the time and step.
 pub fn run_to_dir<S: System>(
     sys: &S,
     cfg: &RunConfig,
@@ -858,6 +908,7 @@ pub fn run_to_dir<S: System>(
     summary.wall_time = t0.elapsed().as_secs_f64();
     summary.finished = report.finished;
     summary.failure = report.failure.clone();
+    summary.interrupted = report.interrupted.clone();
     summary.max_constraint_violation = Some(report.max_violation.0);
     summary.max_violation_joint =
         (!report.max_violation.1.is_empty()).then(|| report.max_violation.1.clone());

@@ -88,6 +88,7 @@ impl InterpRunner {
                 cause: format!("the runtime panicked: {msg}"),
                 hint: None,
             }),
+            interrupted: None,
             retries: 0,
             max_violation: (0.0, String::new()),
             max_relative_violation: (0.0, String::new(), 0.0),
