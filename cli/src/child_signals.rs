@@ -13,25 +13,40 @@
 //! While cargo builds the program, nothing is installed: a signal ends the build and this
 //! process at once.
 
-/// Forwards SIGTERM to a child and keeps SIGINT from ending this process, until
-/// [`Forward::stop`].
+/// Keeps SIGINT from ending this process and forwards SIGTERM to the child, from
+/// [`Forward::start`] (before the child is spawned, so that no signal finds this process
+/// unprepared) to [`Forward::stop`].
 pub struct Forward {
     #[cfg(unix)]
     handle: signal_hook::iterator::Handle,
     #[cfg(unix)]
     thread: std::thread::JoinHandle<()>,
+    /// The child, once spawned, and whether a SIGTERM came before it was.
+    #[cfg(unix)]
+    child: std::sync::Arc<std::sync::Mutex<(Option<libc::pid_t>, bool)>>,
 }
 
 /// After [`Forward::stop`], SIGINT and SIGTERM end this process at once again.
 #[cfg(unix)]
 static DEFAULT_AGAIN: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
 
+/// Send SIGTERM to `pid`.
+#[cfg(unix)]
+fn terminate(pid: libc::pid_t) {
+    // SAFETY: `kill` has no memory-safety preconditions. The child is not reaped before
+    // `Forward::stop` has joined the forwarding thread, so `pid` is still the child's
+    // (running or a zombie), never another process.
+    unsafe {
+        libc::kill(pid, libc::SIGTERM);
+    }
+}
+
 impl Forward {
-    /// Start for the child with process id `pid`.
+    /// Start, before the child is spawned ([`Forward::child`] names it).
     ///
     /// # Errors
     /// If the handlers cannot be installed (then the signals keep their default action).
-    pub fn start(pid: u32) -> std::io::Result<Forward> {
+    pub fn start() -> std::io::Result<Forward> {
         #[cfg(unix)]
         {
             use signal_hook::consts::{SIGINT, SIGTERM};
@@ -51,30 +66,51 @@ impl Forward {
             DEFAULT_AGAIN.store(false, Ordering::SeqCst);
             let mut signals = signal_hook::iterator::Signals::new([SIGINT, SIGTERM])?;
             let handle = signals.handle();
-            let pid = libc::pid_t::try_from(pid).map_err(std::io::Error::other)?;
+            let child = std::sync::Arc::new(std::sync::Mutex::new((None, false)));
+            let seen = child.clone();
             let thread = std::thread::spawn(move || {
                 for s in signals.forever() {
                     if s == SIGTERM {
-                        // SAFETY: `kill` has no memory-safety preconditions. The child is not
-                        // reaped before `Forward::stop` has joined this thread, so `pid` is
-                        // still the child's (running or a zombie), never another process.
-                        unsafe {
-                            libc::kill(pid, SIGTERM);
+                        let mut c = seen.lock().unwrap_or_else(|p| p.into_inner());
+                        match c.0 {
+                            Some(pid) => terminate(pid),
+                            None => c.1 = true,
                         }
                     }
                 }
             });
-            Ok(Forward { handle, thread })
+            Ok(Forward {
+                handle,
+                thread,
+                child,
+            })
         }
         #[cfg(not(unix))]
         {
-            let _ = pid;
             Ok(Forward {})
         }
     }
 
-    /// Stop forwarding (call it before the child is reaped: after its output ended, before
-    /// `wait`); SIGINT and SIGTERM end this process at once again.
+    /// The child is spawned, with process id `pid` (a SIGTERM that came before is forwarded
+    /// now).
+    pub fn child(&self, pid: u32) {
+        #[cfg(unix)]
+        {
+            let Ok(pid) = libc::pid_t::try_from(pid) else {
+                return;
+            };
+            let mut c = self.child.lock().unwrap_or_else(|p| p.into_inner());
+            c.0 = Some(pid);
+            if std::mem::take(&mut c.1) {
+                terminate(pid);
+            }
+        }
+        #[cfg(not(unix))]
+        let _ = pid;
+    }
+
+    /// Stop forwarding — before the child is reaped: after its output ended, before `wait`
+    /// — and let SIGINT and SIGTERM end this process at once again.
     pub fn stop(self) {
         #[cfg(unix)]
         {

@@ -479,17 +479,20 @@ pub fn run_compiled(scene: &Scene, args: &Args) -> ExitCode {
     cmd.stdin(Stdio::null()).stderr(Stdio::piped());
     let duration = args.duration.unwrap_or(scene.simulate.duration);
     let mut progress = Progress::new(duration, args.quiet);
+    // SIGINT must not end this process before the program has written its summary;
+    // SIGTERM is forwarded to it
+    let mut forward = match crate::child_signals::Forward::start() {
+        Ok(f) => Some(f),
+        Err(e) => {
+            progress.print(&format!("warning: SIGINT and SIGTERM will end mbdc before the run has written its summary: {e}"));
+            None
+        }
+    };
     let status = match cmd.spawn() {
         Ok(mut child) => {
-            // SIGINT must not end this process before the program has written its summary;
-            // SIGTERM is forwarded to it
-            let forward = match crate::child_signals::Forward::start(child.id()) {
-                Ok(f) => Some(f),
-                Err(e) => {
-                    progress.print(&format!("warning: SIGINT and SIGTERM will end mbdc before the run has written its summary: {e}"));
-                    None
-                }
-            };
+            if let Some(f) = &forward {
+                f.child(child.id());
+            }
             if let Some(err) = child.stderr.take() {
                 for line in BufReader::new(err).lines().map_while(Result::ok) {
                     match line.strip_prefix(PROTOCOL) {
@@ -507,13 +510,16 @@ pub fn run_compiled(scene: &Scene, args: &Args) -> ExitCode {
                 }
             }
             // the program's stderr has ended: it has exited (not yet reaped)
-            if let Some(f) = forward {
+            if let Some(f) = forward.take() {
                 f.stop();
             }
             child.wait()
         }
         Err(e) => Err(e),
     };
+    if let Some(f) = forward {
+        f.stop();
+    }
     progress.finish();
     let _ = std::fs::remove_file(&scene_file);
     let status = match status {

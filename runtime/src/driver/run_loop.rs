@@ -1090,6 +1090,169 @@ mod tests {
         assert!(notices.is_empty(), "{notices:?}");
     }
 
+    /// Stops when asked for the `at`-th time, and records the frames (step, t).
+    struct StopAt {
+        at: u64,
+        asked: u64,
+        frames: Vec<(u64, f64)>,
+    }
+    impl Observer for StopAt {
+        fn frame(&mut self, f: &Frame<'_>) {
+            self.frames.push((f.step, f.state.t));
+        }
+        fn stop_requested(&mut self) -> Option<&'static str> {
+            self.asked += 1;
+            (self.asked >= self.at).then_some("SIGTERM")
+        }
+    }
+
+    fn pendulum_config(every: u32) -> RunConfig {
+        RunConfig {
+            duration: 0.1,
+            step: 1e-3,
+            method: MethodSpec::Staggered(StaggeredOptions::default()),
+            every,
+            on_failure: OnFailure::Stop,
+            watchdog: Watchdog::for_scale(1.0, false),
+        }
+    }
+
+    /// A stop requested from outside (a signal, through the observer; issue 22) ends the run
+    /// after the step in which it was asked, as an interruption and not a failure: the state
+    /// of that step is the last frame also between output frames (step 25 with a frame every
+    /// 10), the report's time is that frame's time, the request is asked once per step, and
+    /// the method's statistics are kept. On an output step the frame is not repeated. A
+    /// request after the last step changes nothing: the run has finished. Reference: the
+    /// same run without requests, whose frames up to there are the same.
+    #[test]
+    fn a_stop_request_ends_the_run_after_its_step() {
+        let sys = RodPendulum::new(1.0, 1.0, 0.01, 1.0);
+        let cfg = pendulum_config(10);
+        let mut full = StopAt {
+            at: u64::MAX,
+            asked: 0,
+            frames: vec![],
+        };
+        let r = run(&sys, &cfg, &mut full);
+        assert!(r.finished && r.interrupted.is_none(), "{r:?}");
+        // asked after every step but the last
+        assert_eq!(full.asked, 99);
+
+        let mut obs = StopAt {
+            at: 25,
+            asked: 0,
+            frames: vec![],
+        };
+        let r = run(&sys, &cfg, &mut obs);
+        assert!(!r.finished && r.failure.is_none());
+        let i = r.interrupted.clone().expect("interrupted");
+        assert_eq!((i.by.as_str(), i.step), ("SIGTERM", 25));
+        assert_eq!(obs.asked, 25);
+        assert_eq!(r.steps, 25);
+        let steps: Vec<u64> = obs.frames.iter().map(|f| f.0).collect();
+        assert_eq!(steps, [0, 10, 20, 25]);
+        let last_t = obs.frames.last().unwrap().1;
+        assert_eq!(i.time.to_bits(), last_t.to_bits());
+        assert_eq!(r.t_end.to_bits(), last_t.to_bits());
+        assert!((last_t - 0.025).abs() < 1e-12, "{last_t}");
+        assert_eq!(obs.frames[..3], full.frames[..3]);
+        assert!(!r.stats.is_empty());
+        assert_eq!(
+            i.to_string(),
+            "interrupted by SIGTERM at t = 0.025000 s (step 25)"
+        );
+
+        let mut obs = StopAt {
+            at: 30,
+            asked: 0,
+            frames: vec![],
+        };
+        let r = run(&sys, &cfg, &mut obs);
+        let steps: Vec<u64> = obs.frames.iter().map(|f| f.0).collect();
+        assert_eq!(steps, [0, 10, 20, 30]);
+        assert_eq!(r.interrupted.expect("interrupted").step, 30);
+
+        let mut obs = StopAt {
+            at: 100,
+            asked: 0,
+            frames: vec![],
+        };
+        let r = run(&sys, &cfg, &mut obs);
+        assert!(r.finished && r.interrupted.is_none(), "{r:?}");
+    }
+
+    /// An interrupted run's folder (issue 22): `summary.json` says `"status": "interrupted"`,
+    /// by what, at the time and step of the last frame of `bodies.csv`, whose rows are whole;
+    /// the summary written at the start says `"status": "started"` (what a killed run
+    /// leaves), and a `summary.json` written before the status existed is read with the
+    /// status its fields give.
+    #[test]
+    fn an_interrupted_run_writes_its_reason_into_the_summary() {
+        use crate::contract::scene::OutputSpec;
+        use crate::driver::output::{RunMeta, RunStatus, Summary};
+        let dir = tempfile::tempdir().unwrap();
+        let sys = RodPendulum::new(1.0, 1.0, 0.01, 1.0);
+        let cfg = pendulum_config(10);
+        let meta = RunMeta {
+            model: "rod".into(),
+            method: "staggered".into(),
+            step: cfg.step,
+            duration: cfg.duration,
+        };
+        let spec = OutputSpec {
+            every: 10,
+            bodies: true,
+            energy: true,
+            constraints: true,
+        };
+        let mut obs = StopAt {
+            at: 47,
+            asked: 0,
+            frames: vec![],
+        };
+        let (report, summary) =
+            run_to_dir(&sys, &cfg, meta.clone(), &spec, dir.path(), &mut obs).unwrap();
+        assert_eq!(summary.status(), RunStatus::Interrupted);
+        assert_eq!(summary.interrupted, report.interrupted);
+        let text = std::fs::read_to_string(dir.path().join("summary.json")).unwrap();
+        assert!(text.contains("\"status\": \"interrupted\""), "{text}");
+        assert!(text.contains("\"by\": \"SIGTERM\""), "{text}");
+        let back = Summary::read(&dir.path().join("summary.json")).unwrap();
+        let i = back.interrupted.clone().expect("interrupted");
+        assert_eq!((i.step, back.steps, back.frames), (47, 47, 6));
+        assert!(!back.finished && back.failure.is_none());
+        for file in ["bodies.csv", "energy.csv", "constraints.csv"] {
+            let csv = std::fs::read_to_string(dir.path().join(file)).unwrap();
+            assert!(csv.ends_with('\n'), "{file}");
+            let mut lines = csv.lines();
+            let columns = lines.next().unwrap().split(',').count();
+            let rows: Vec<&str> = lines.collect();
+            assert_eq!(rows.len(), 6, "{file}");
+            assert!(rows.iter().all(|r| r.split(',').count() == columns), "{file}");
+            let t: f64 = rows[5].split(',').next().unwrap().parse().unwrap();
+            assert_eq!(t.to_bits(), i.time.to_bits(), "{file}");
+        }
+        // the placeholder of a run that never finished, and an old summary
+        let started = Summary::started(&meta);
+        assert_eq!(started.status(), RunStatus::Started);
+        let w = crate::driver::output::OutputWriter::create(
+            dir.path(),
+            sys.layout(),
+            &spec,
+            meta.clone(),
+        )
+        .unwrap();
+        let text = std::fs::read_to_string(dir.path().join("summary.json")).unwrap();
+        assert!(text.starts_with("{\n  \"status\": \"started\","), "{text}");
+        drop(w);
+        let mut old: serde_json::Value = serde_json::from_str(&text).unwrap();
+        old.as_object_mut().unwrap().remove("status");
+        old.as_object_mut().unwrap().remove("interrupted");
+        old["finished"] = true.into();
+        let old: Summary = serde_json::from_value(old).unwrap();
+        assert_eq!(old.status(), RunStatus::Finished);
+    }
+
     #[test]
     fn penalty_with_a_tiny_epsilon_blows_up_and_is_reported_then_halving_rescues_it() {
         // penalty frequency sqrt(K/ε)·h ≫ 2: unstable; the watchdog must name the joint or body
