@@ -711,10 +711,21 @@ fn check<S: System>(
                     who = i;
                 }
             }
+            // a scene of meshes alone has no body to name
+            let location = if !layout.meshes.is_empty() && st.mesh_kinetic() >= best {
+                match layout.meshes.blocks.as_slice() {
+                    [b] => format!("mesh '{}'", b.name),
+                    _ => "the meshes".into(),
+                }
+            } else if who < layout.body_names.len() {
+                format!("body '{}'", layout.body_names[who])
+            } else {
+                "system".into()
+            };
             return Some(Failure {
                 time: st.t,
                 step,
-                location: format!("body '{}'", layout.body_names[who]),
+                location,
                 quantity: "relative energy growth".into(),
                 value: growth,
                 cause: "energy grows although the scene has no energy source: the integration is unstable (step above the stability limit, or stiff springs or fast spin for an explicit method)".into(),
