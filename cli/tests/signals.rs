@@ -205,7 +205,7 @@ fn sigint_ends_an_interpreted_mesh_run_honestly() {
     let dir = scratch("sigint-interp");
     let out = dir.join("out");
     let mut child = start_interp(
-        "plate.mbd",
+        "hex_bar.mbd",
         &out,
         &["--duration", "1000", "--every", "1000"],
     );
