@@ -30,6 +30,12 @@ impl Observer for Collect {
             self.track.push_frame(f);
         }
     }
+    /// A program that installed [`crate::app::StopSignals`] (`mbdc sweep --interp`) stops
+    /// the run on SIGINT or SIGTERM; the study then leaves it out and stops
+    /// ([`super::Study::run`]).
+    fn stop_requested(&mut self) -> Option<&'static str> {
+        crate::app::StopSignals::pending().map(crate::app::Signal::name)
+    }
 }
 
 /// Runs through the interpreter in this process.

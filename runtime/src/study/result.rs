@@ -57,6 +57,10 @@ pub struct StudyResult {
     pub energy_sources: bool,
     /// Per method: fits of the primary and the secondary measure.
     pub fits: Vec<(Fit, Option<Fit>)>,
+    /// The signal that stopped the study before its last run (`SIGINT`, `SIGTERM`): the
+    /// runs are those done before it, the run it cut is left out, and a numerical reference
+    /// is not computed ([`ReferenceInfo::Unavailable`]).
+    pub interrupted: Option<String>,
 }
 
 impl StudyResult {
