@@ -56,11 +56,12 @@ impl Forward {
             static REGISTERED: std::sync::Once = std::sync::Once::new();
             let mut registered: std::io::Result<()> = Ok(());
             REGISTERED.call_once(|| {
-                registered = signal_hook::flag::register_conditional_default(SIGINT, &DEFAULT_AGAIN)
-                    .and_then(|_| {
-                        signal_hook::flag::register_conditional_default(SIGTERM, &DEFAULT_AGAIN)
-                    })
-                    .map(|_| ());
+                registered =
+                    signal_hook::flag::register_conditional_default(SIGINT, &DEFAULT_AGAIN)
+                        .and_then(|_| {
+                            signal_hook::flag::register_conditional_default(SIGTERM, &DEFAULT_AGAIN)
+                        })
+                        .map(|_| ());
             });
             registered?;
             DEFAULT_AGAIN.store(false, Ordering::SeqCst);

@@ -182,7 +182,10 @@ fn check_interrupted(out: &Output, dir: &Path, signal: &str, code: i32, stem: &s
             if name != "beams.csv" {
                 assert_eq!(rows, frames, "{name}: one row per frame");
             }
-            assert_eq!(last, t, "{name}: the last row is the state where the run stopped");
+            assert_eq!(
+                last, t,
+                "{name}: the last row is the state where the run stopped"
+            );
             csvs += 1;
         }
     }
@@ -410,5 +413,76 @@ fn compiled_path_forwards_sigterm_to_the_program() {
         "{stderr}"
     );
     assert_eq!(summary(&dir.join("out"))["status"], "interrupted");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Ctrl-C during `mbdc sweep --interp` stops it at the run in progress, which is left out, and
+/// writes the runs done before: exit 130, `sweep.csv` with those runs, `sweep.json` saying
+/// `"interrupted": "SIGINT"`, no numerical reference computed. The signal comes after the
+/// first run's progress line; the last step of the series (10⁸ steps) could not finish
+/// before it on any machine.
+#[test]
+fn sigint_stops_a_sweep_at_the_run_in_progress_and_writes_the_rest() {
+    use std::io::BufRead;
+    let dir = scratch("sigint-sweep");
+    let mut child = command()
+        .args(["sweep", "--interp", "--methods", "staggered"])
+        .args(["--steps", "1e-3,1e-5,1e-6,1e-7", "--duration", "10"])
+        .args(["--min-time", "0.01", "-o", s(&dir)])
+        .arg(root().join("models/double_pendulum_3d.mbd"))
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("mbdc sweep runs");
+    let err = child.stderr.take().expect("stderr");
+    let (tx, rx) = std::sync::mpsc::channel();
+    let reader = std::thread::spawn(move || {
+        for line in std::io::BufReader::new(err).lines().map_while(Result::ok) {
+            let _ = tx.send(line);
+        }
+    });
+    let mut stderr = String::new();
+    loop {
+        let line = rx
+            .recv_timeout(PATIENCE)
+            .expect("a run's progress line before the time runs out");
+        stderr.push_str(&line);
+        stderr.push('\n');
+        if line.contains("h = ") {
+            break;
+        }
+    }
+    kill(child.id() as i32, libc::SIGINT);
+    let o = finish(child);
+    reader.join().expect("reader");
+    stderr.extend(rx.try_iter().map(|l| l + "\n"));
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert_eq!(o.status.code(), Some(130), "{stdout}\n{stderr}");
+    assert!(
+        stderr.contains("interrupted by SIGINT: wrote the"),
+        "{stderr}"
+    );
+    assert!(stdout.contains("Interrupted by SIGINT"), "{stdout}");
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("sweep.json")).expect("sweep.json"))
+            .expect("JSON");
+    assert_eq!(json["interrupted"], "SIGINT", "{json}");
+    let runs = json["runs"].as_array().expect("runs").len();
+    assert!((1..4).contains(&runs), "{runs} runs");
+    // the scene has no reference of its own: the numerical one is not computed
+    assert_eq!(json["reference"]["kind"], "none", "{json}");
+    assert!(
+        json["reference"]["why"]
+            .as_str()
+            .is_some_and(|w| w.contains("interrupted by SIGINT")),
+        "{json}"
+    );
+    let csv = std::fs::read_to_string(dir.join("sweep.csv")).expect("sweep.csv");
+    assert_eq!(
+        csv.lines().count() - 1,
+        runs,
+        "sweep.csv: one row per run done"
+    );
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -536,7 +536,9 @@ pub fn run_compiled(scene: &Scene, args: &Args) -> ExitCode {
     if status.code().is_none() {
         // ended by a signal it does not handle, or by a second SIGINT: what it wrote until
         // then is whole, its summary.json is the one written at the start
-        eprintln!("error: the scene's program was terminated ({status}) before it wrote its summary");
+        eprintln!(
+            "error: the scene's program was terminated ({status}) before it wrote its summary"
+        );
         eprintln!(
             "  the frames written until then are in {} (its summary.json says the run did not finish)",
             dir.display()

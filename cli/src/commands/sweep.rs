@@ -264,7 +264,9 @@ pub fn sweep(args: &Args, scene: &Scene) -> Result<StudyResult, String> {
     let signals = match StopSignals::install() {
         Ok(s) => Some(s),
         Err(e) => {
-            eprintln!("warning: SIGINT and SIGTERM will end the sweep at once, writing nothing: {e}");
+            eprintln!(
+                "warning: SIGINT and SIGTERM will end the sweep at once, writing nothing: {e}"
+            );
             None
         }
     };

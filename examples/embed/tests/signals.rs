@@ -52,8 +52,7 @@ fn interrupt(signal: i32, name: &str, code: i32) {
     let out = scratch(name);
     let mut child = start(&out);
     let t0 = Instant::now();
-    while !std::fs::read_to_string(out.join("bodies.csv")).is_ok_and(|t| t.lines().count() >= 4)
-    {
+    while !std::fs::read_to_string(out.join("bodies.csv")).is_ok_and(|t| t.lines().count() >= 4) {
         if let Some(status) = child.try_wait().expect("try_wait") {
             let o = child.wait_with_output().expect("output");
             panic!(
@@ -87,7 +86,10 @@ fn interrupt(signal: i32, name: &str, code: i32) {
     assert_eq!(s.status(), RunStatus::Interrupted, "{s:?}");
     let i = s.interrupted.clone().expect("interrupted");
     assert_eq!(i.by, name);
-    assert!(i.time > 0.0 && i.step == s.steps && s.final_time == i.time, "{s:?}");
+    assert!(
+        i.time > 0.0 && i.step == s.steps && s.final_time == i.time,
+        "{s:?}"
+    );
     for f in ["bodies.csv", "energy.csv", "constraints.csv"] {
         let (rows, last) = whole_rows(&out.join(f));
         assert_eq!(rows as u64, s.frames, "{f}: one row per frame");

@@ -268,7 +268,9 @@ pub fn run_with<M: CompiledModel>(args: &Args) -> ExitCode {
     let signals = match StopSignals::install() {
         Ok(s) => Some(s),
         Err(e) => {
-            eprintln!("warning: SIGINT and SIGTERM will end the run at once, without its summary: {e}");
+            eprintln!(
+                "warning: SIGINT and SIGTERM will end the run at once, without its summary: {e}"
+            );
             None
         }
     };

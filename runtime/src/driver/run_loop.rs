@@ -1239,7 +1239,10 @@ mod tests {
             let columns = lines.next().unwrap().split(',').count();
             let rows: Vec<&str> = lines.collect();
             assert_eq!(rows.len(), 6, "{file}");
-            assert!(rows.iter().all(|r| r.split(',').count() == columns), "{file}");
+            assert!(
+                rows.iter().all(|r| r.split(',').count() == columns),
+                "{file}"
+            );
             let t: f64 = rows[5].split(',').next().unwrap().parse().unwrap();
             assert_eq!(t.to_bits(), i.time.to_bits(), "{file}");
         }
