@@ -540,7 +540,7 @@ pub fn run_compiled(scene: &Scene, args: &Args) -> ExitCode {
             "error: the scene's program was terminated ({status}) before it wrote its summary"
         );
         eprintln!(
-            "  the frames written until then are in {} (its summary.json says the run did not finish)",
+            "  what it wrote until then is in {}, whole (a summary.json there says the run did not finish)",
             dir.display()
         );
         return ExitCode::from(killed_code(&status));

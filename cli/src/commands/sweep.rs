@@ -28,8 +28,8 @@
 //! interpreted run stops within a step; a compiled program stops its run too when it has the
 //! signal (a terminal's Ctrl-C reaches it), and ends its run first when only this process
 //! had it. The runs done before are written as usual, with the scene's analytic or table
-//! reference but no numerical one (the longest run of all), `"interrupted"` in
-//! `sweep.json`, and the exit code is 130 or 143.
+//! reference but no numerical one (the longest run of all; a signal during it stops it),
+//! `"interrupted"` in `sweep.json`, and the exit code is 130 or 143.
 
 pub mod report;
 pub mod runner;

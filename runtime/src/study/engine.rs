@@ -178,6 +178,10 @@ impl<'s> Study<'s> {
         }
 
         let (info, solution) = self.reference(&runs, progress, interrupted.as_deref())?;
+        // a signal during the numerical reference stopped it (it is unavailable then)
+        if interrupted.is_none() {
+            interrupted = crate::app::StopSignals::pending().map(|s| s.name().to_string());
+        }
         if let Some(sol) = &solution {
             for r in &mut runs {
                 if r.outcome.status.is_ok() {
