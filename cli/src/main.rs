@@ -7,6 +7,7 @@
 //! Each subcommand lives in its own module under `commands/` with an `Args` struct (clap
 //! derive) and a `run(args) -> ExitCode` function; add a variant to [`Command`] to add one.
 
+mod child_signals;
 mod commands;
 mod plot;
 mod render;

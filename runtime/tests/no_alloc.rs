@@ -588,3 +588,18 @@ fn mesh_steps_do_not_allocate_with_any_assembly() {
         }
     }
 }
+
+/// Asking whether to stop, which the run loop does after every step (issue 22: SIGINT and
+/// SIGTERM end a run honestly), allocates nothing: with no signal and with one received.
+#[cfg(unix)]
+#[test]
+fn asking_whether_a_signal_stops_the_run_does_not_allocate() {
+    use mbdc_runtime::app::{Signal, StopSignals};
+    let signals = StopSignals::install().expect("handlers");
+    let (r, count) = allocations(|| (0..1000).filter_map(|_| signals.received()).count());
+    assert_eq!((r, count), (0, 0));
+    // SIGTERM is a request while installed (SIGINT's second delivery would end the process)
+    signal_hook::low_level::raise(signal_hook::consts::SIGTERM).expect("raise");
+    let (r, count) = allocations(|| signals.received().map(Signal::name));
+    assert_eq!((r, count), (Some("SIGTERM"), 0));
+}

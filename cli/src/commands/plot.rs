@@ -4,9 +4,14 @@
 //! `constraints.svg`, `trajectories.svg`), optionally for chosen bodies and joints. With
 //! quantities — any column of the output CSV files, by name — it draws them against time
 //! into one figure (`plot.svg` by default), one panel per unit.
+//!
+//! A run that did not finish — its `summary.json` still the one written when it started,
+//! after a SIGKILL or a crash — is plotted up to its last frame, with a warning that says so.
 
 use std::path::PathBuf;
 use std::process::ExitCode;
+
+use mbdc_runtime::output::{RunStatus, Summary};
 
 use crate::plot::{self, data, run_plots::RunPlotOptions};
 
@@ -48,6 +53,20 @@ pub fn run(args: Args) -> ExitCode {
     }
 }
 
+/// Says so when the run did not finish: its `summary.json` is still the one written at its
+/// start. What it wrote until then is whole and is plotted.
+fn warn_unfinished(dir: &std::path::Path) {
+    if let Ok(s) = Summary::read(&dir.join("summary.json")) {
+        if s.status() == RunStatus::Started {
+            eprintln!(
+                "warning: the run in {} did not finish: {}; plotting the frames it wrote until then",
+                dir.display(),
+                crate::commands::run::UNFINISHED
+            );
+        }
+    }
+}
+
 fn plot_dir(args: &Args) -> Result<(), plot::PlotError> {
     if args.list {
         let mut any = false;
@@ -68,6 +87,7 @@ fn plot_dir(args: &Args) -> Result<(), plot::PlotError> {
         }
         return Ok(());
     }
+    warn_unfinished(&args.dir);
     if args.quantities.is_empty() {
         let opts = RunPlotOptions {
             bodies: args.bodies.clone(),

@@ -8,6 +8,15 @@
 //! folder as it proceeds, shows a progress bar when the run takes longer than a second, and
 //! ends with a summary (steps, wall time, constraint violation, energy drift) or a failure
 //! report that says where and why.
+//!
+//! SIGINT (Ctrl-C) and SIGTERM end a run honestly on both paths: the run finishes its step,
+//! writes that state as its last frame, flushes every file, writes `summary.json` with
+//! `"status": "interrupted"` and the time and step, prints it, and `mbdc` exits with 130
+//! (SIGINT) or 143 (SIGTERM). On the compiled path the program handles them
+//! ([`mbdc_runtime::app::StopSignals`]) and this process waits for it
+//! ([`crate::child_signals`]). A second Ctrl-C ends the run at once. A run whose process
+//! was killed without a word (SIGKILL) leaves the `summary.json` written at its start; the
+//! next `mbdc run` or `mbdc plot` on the folder says that the run did not finish.
 
 use std::io::{BufRead, BufReader};
 use std::path::PathBuf;
@@ -16,9 +25,9 @@ use std::time::{Duration, Instant};
 
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use mbdc_compiler::Override;
-use mbdc_runtime::app::{Settings, PROTOCOL};
+use mbdc_runtime::app::{Settings, Signal, StopSignals, PROTOCOL};
 use mbdc_runtime::interp::Interp;
-use mbdc_runtime::output::{RunMeta, Summary};
+use mbdc_runtime::output::{RunMeta, RunStatus, Summary};
 use mbdc_runtime::run_loop::{self, Frame, Observer, RunConfig};
 use mbdc_runtime::scene::{MethodSpec, Scene};
 use mbdc_runtime::system::System;
@@ -125,12 +134,14 @@ fn settings(args: &Args) -> Settings {
     }
 }
 
-/// A progress bar that appears once a run has taken more than a second.
+/// A progress bar that appears once a run has taken more than a second; with
+/// [`Progress::stop_on_signals`], the run's stop requests too.
 pub struct Progress {
     bar: Option<ProgressBar>,
     start: Instant,
     duration: f64,
     shown: bool,
+    signals: Option<StopSignals>,
 }
 
 impl Progress {
@@ -151,7 +162,21 @@ impl Progress {
             start: Instant::now(),
             duration,
             shown: false,
+            signals: None,
         }
+    }
+
+    /// Make SIGINT and SIGTERM stop requests of the run this observes, until
+    /// [`Progress::finish`] (if the handlers cannot be installed, says so: the signals then
+    /// end the run at once).
+    pub fn stop_on_signals(mut self) -> Progress {
+        match StopSignals::install() {
+            Ok(s) => self.signals = Some(s),
+            Err(e) => self.print(&format!(
+                "warning: SIGINT and SIGTERM will end the run at once, without its summary: {e}"
+            )),
+        }
+        self
     }
 
     /// Print a line on stderr without breaking the bar.
@@ -162,8 +187,9 @@ impl Progress {
         }
     }
 
-    /// Remove the bar.
-    pub fn finish(&self) {
+    /// Remove the bar; SIGINT and SIGTERM end the process at once again.
+    pub fn finish(&mut self) {
+        self.signals = None;
         if let Some(b) = &self.bar {
             b.finish_and_clear();
         }
@@ -192,7 +218,30 @@ impl Observer for Progress {
             None => eprintln!("note: {m}"),
         }
     }
+    fn stop_requested(&mut self) -> Option<&'static str> {
+        self.signals.as_ref()?.received().map(Signal::name)
+    }
 }
+
+/// Says so when the last run in `dir` did not finish: its `summary.json` is still the one
+/// written at its start (its process was killed without a word, or it is still running).
+pub fn note_unfinished(dir: &std::path::Path, quiet: bool) {
+    if quiet {
+        return;
+    }
+    if let Ok(s) = Summary::read(&dir.join("summary.json")) {
+        if s.status() == RunStatus::Started {
+            eprintln!(
+                "note: the last run in {} did not finish: {}; this run replaces its output",
+                dir.display(),
+                UNFINISHED
+            );
+        }
+    }
+}
+
+/// What a `summary.json` that still says `"status": "started"` means.
+pub const UNFINISHED: &str = "its summary.json is still the one written when it started (its process was killed without a word — SIGKILL, a crash, a power cut — or it is still running)";
 
 /// Runs `mbdc run`.
 pub fn run(args: Args) -> ExitCode {
@@ -262,15 +311,18 @@ pub fn simulate<S: System>(sys: &S, scene: &Scene, args: &Args) -> ExitCode {
         step: cfg.step,
         duration: cfg.duration,
     };
-    let mut progress = Progress::new(cfg.duration, args.quiet);
+    note_unfinished(&dir, args.quiet);
+    let mut progress = Progress::new(cfg.duration, args.quiet).stop_on_signals();
     let result = run_loop::run_to_dir(sys, &cfg, meta, &scene.simulate.output, &dir, &mut progress);
     progress.finish();
     let code = match result {
         Ok((report, summary)) => {
-            if !args.quiet || report.failure.is_some() {
+            if !args.quiet || report.failure.is_some() || report.interrupted.is_some() {
                 print_summary(&summary, &dir);
             }
-            if report.finished {
+            if let Some(i) = &report.interrupted {
+                mbdc_runtime::app::exit_code(i)
+            } else if report.finished {
                 ExitCode::SUCCESS
             } else {
                 ExitCode::FAILURE
@@ -288,7 +340,7 @@ pub fn simulate<S: System>(sys: &S, scene: &Scene, args: &Args) -> ExitCode {
 
 /// The end-of-run summary on the terminal.
 pub fn print_summary(s: &Summary, dir: &std::path::Path) {
-    let status = if s.finished { "finished" } else { "STOPPED" };
+    let status = s.status().word();
     println!(
         "{} — {} with {} (h = {:.3e} s)",
         s.model, status, s.method, s.step
@@ -342,6 +394,16 @@ pub fn print_summary(s: &Summary, dir: &std::path::Path) {
             f.time,
             dir.display()
         );
+    } else if let Some(i) = &s.interrupted {
+        eprintln!("{i}");
+        eprintln!(
+            "  every frame up to t = {:.6} s is in {}",
+            i.time,
+            dir.display()
+        );
+    } else if s.status() == RunStatus::Started {
+        eprintln!("error: the run did not finish: {UNFINISHED}");
+        eprintln!("  the frames written until then are in {}", dir.display());
     } else {
         println!("  output: {}", dir.display());
     }
@@ -386,6 +448,7 @@ pub fn run_compiled(scene: &Scene, args: &Args) -> ExitCode {
         .out
         .clone()
         .unwrap_or_else(|| PathBuf::from("out").join(&scene.name));
+    note_unfinished(&dir, args.quiet);
     let mut cmd = Command::new(&program);
     cmd.arg("--scene")
         .arg(&scene_file)
@@ -416,8 +479,20 @@ pub fn run_compiled(scene: &Scene, args: &Args) -> ExitCode {
     cmd.stdin(Stdio::null()).stderr(Stdio::piped());
     let duration = args.duration.unwrap_or(scene.simulate.duration);
     let mut progress = Progress::new(duration, args.quiet);
+    // SIGINT must not end this process before the program has written its summary;
+    // SIGTERM is forwarded to it
+    let mut forward = match crate::child_signals::Forward::start() {
+        Ok(f) => Some(f),
+        Err(e) => {
+            progress.print(&format!("warning: SIGINT and SIGTERM will end mbdc before the run has written its summary: {e}"));
+            None
+        }
+    };
     let status = match cmd.spawn() {
         Ok(mut child) => {
+            if let Some(f) = &forward {
+                f.child(child.id());
+            }
             if let Some(err) = child.stderr.take() {
                 for line in BufReader::new(err).lines().map_while(Result::ok) {
                     match line.strip_prefix(PROTOCOL) {
@@ -434,10 +509,17 @@ pub fn run_compiled(scene: &Scene, args: &Args) -> ExitCode {
                     }
                 }
             }
+            // the program's stderr has ended: it has exited (not yet reaped)
+            if let Some(f) = forward.take() {
+                f.stop();
+            }
             child.wait()
         }
         Err(e) => Err(e),
     };
+    if let Some(f) = forward {
+        f.stop();
+    }
     progress.finish();
     let _ = std::fs::remove_file(&scene_file);
     let status = match status {
@@ -447,22 +529,35 @@ pub fn run_compiled(scene: &Scene, args: &Args) -> ExitCode {
             return ExitCode::FAILURE;
         }
     };
-    if status.code() == Some(2) || status.code().is_none() {
-        // the program could not start (its error is printed above) or was killed
-        if status.code().is_none() {
-            eprintln!("error: the scene's program was terminated ({status})");
-        }
+    if status.code() == Some(2) {
+        // the program could not start (its error is printed above)
         return ExitCode::FAILURE;
     }
-    let summary: Option<Summary> = std::fs::read_to_string(dir.join("summary.json"))
-        .ok()
-        .and_then(|s| serde_json::from_str(&s).ok());
+    if status.code().is_none() {
+        // ended by a signal it does not handle, or by a second SIGINT: what it wrote until
+        // then is whole, its summary.json is the one written at the start
+        eprintln!(
+            "error: the scene's program was terminated ({status}) before it wrote its summary"
+        );
+        eprintln!(
+            "  what it wrote until then is in {}, whole (a summary.json there says the run did not finish)",
+            dir.display()
+        );
+        return ExitCode::from(killed_code(&status));
+    }
+    let summary: Option<Summary> = Summary::read(&dir.join("summary.json")).ok();
     let code = match summary {
         Some(s) => {
-            if !args.quiet || s.failure.is_some() {
+            if !args.quiet || s.failure.is_some() || s.interrupted.is_some() {
                 print_summary(&s, &dir);
             }
-            if s.finished && status.success() {
+            if let Some(i) = &s.interrupted {
+                // the program's own code (130 or 143)
+                status
+                    .code()
+                    .and_then(|c| u8::try_from(c).ok())
+                    .map_or_else(|| mbdc_runtime::app::exit_code(i), ExitCode::from)
+            } else if s.finished && status.success() {
                 ExitCode::SUCCESS
             } else {
                 ExitCode::FAILURE
@@ -475,4 +570,18 @@ pub fn run_compiled(scene: &Scene, args: &Args) -> ExitCode {
     };
     crate::plot::run_plots::after_run(&dir, args.quiet);
     code
+}
+
+/// The exit code of a program a signal ended, as shells give it: 128 + the signal's number
+/// (1 where there are no signals).
+fn killed_code(status: &std::process::ExitStatus) -> u8 {
+    #[cfg(unix)]
+    {
+        use std::os::unix::process::ExitStatusExt;
+        if let Some(sig) = status.signal() {
+            return u8::try_from(128 + sig).unwrap_or(1);
+        }
+    }
+    let _ = status;
+    1
 }

@@ -23,6 +23,13 @@
 //!   agree to round-off);
 //! - the progress lines, the markdown table, the "reading this", and `sweep.csv`,
 //!   `sweep.json`, `sweep.svg` ([`report`]).
+//!
+//! SIGINT (Ctrl-C) or SIGTERM stops the sweep at the run in progress, which is left out: an
+//! interpreted run stops within a step; a compiled program stops its run too when it has the
+//! signal (a terminal's Ctrl-C reaches it), and ends its run first when only this process
+//! had it. The runs done before are written as usual, with the scene's analytic or table
+//! reference but no numerical one (the longest run of all; a signal during it stops it),
+//! `"interrupted"` in `sweep.json`, and the exit code is 130 or 143.
 
 pub mod report;
 pub mod runner;
@@ -31,6 +38,7 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use mbdc_compiler::Override;
+use mbdc_runtime::app::{Signal, StopSignals};
 use mbdc_runtime::scene::{MethodSpec, Scene};
 use mbdc_runtime::study::{
     InterpRunner, MethodEntry, Progress, ReferenceInfo, Runner, Study, StudyError, StudyOptions,
@@ -145,7 +153,8 @@ impl Args {
     }
 }
 
-/// Runs `mbdc sweep`.
+/// Runs `mbdc sweep`. SIGINT or SIGTERM stops it at the run in progress (left out) and
+/// writes the runs done before, with no numerical reference; exit code 130 or 143.
 pub fn run(args: Args) -> ExitCode {
     let scene = match super::run::load(&args.file, &args.set) {
         Ok(s) => s,
@@ -153,7 +162,17 @@ pub fn run(args: Args) -> ExitCode {
     };
     match sweep(&args, &scene) {
         Ok(result) => match report::write_all(&result, &out_dir(&args, &scene)) {
-            Ok(()) => ExitCode::SUCCESS,
+            Ok(()) => match result.interrupted.as_deref().and_then(Signal::from_name) {
+                Some(s) => {
+                    eprintln!(
+                        "interrupted by {}: wrote the {} run(s) done before it",
+                        s.name(),
+                        result.runs.len()
+                    );
+                    ExitCode::from(s.exit_code())
+                }
+                None => ExitCode::SUCCESS,
+            },
             Err(e) => {
                 eprintln!("error: {e}");
                 ExitCode::FAILURE
@@ -239,12 +258,25 @@ pub fn sweep(args: &Args, scene: &Scene) -> Result<StudyResult, String> {
             runner.describe()
         );
     }
-    let mut result = if args.quiet {
+    // SIGINT and SIGTERM stop the study at the run in progress (a compiled program has the
+    // terminal's Ctrl-C too, and stops its run; a SIGTERM to this process alone lets it end
+    // its run first)
+    let signals = match StopSignals::install() {
+        Ok(s) => Some(s),
+        Err(e) => {
+            eprintln!(
+                "warning: SIGINT and SIGTERM will end the sweep at once, writing nothing: {e}"
+            );
+            None
+        }
+    };
+    let result = if args.quiet {
         study.run(runner.as_mut(), &mut ())
     } else {
         study.run(runner.as_mut(), &mut Lines)
-    }
-    .map_err(|e| error_text(&e))?;
+    };
+    drop(signals);
+    let mut result = result.map_err(|e| error_text(&e))?;
     if let ReferenceInfo::Numerical { chosen, .. } = &mut result.reference {
         if args.reference_method.is_some() {
             *chosen = "chosen with --reference-method".into();

@@ -62,8 +62,14 @@ fn context(dir: &Path) -> (String, Option<String>) {
                     f.quantity,
                     f.location
                 ));
+            } else if let Some(i) = &s.interrupted {
+                sub.push_str(&format!(
+                    " — interrupted by {} at t = {} s",
+                    i.by,
+                    super::figure::number_label(i.time)
+                ));
             } else if !s.finished {
-                sub.push_str(" — not finished");
+                sub.push_str(" — did not finish (killed, or still running)");
             }
             (s.model, Some(sub))
         }

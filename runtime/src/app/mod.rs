@@ -16,7 +16,15 @@
 //!
 //! Exit codes: 0 the run finished, 1 the run stopped early (the failure is in
 //! `summary.json`), 2 the run could not start (bad arguments, another structure, output
-//! folder not writable).
+//! folder not writable), 130 or 143 the run was interrupted by SIGINT or SIGTERM: it
+//! finished its step, wrote that state as its last frame, flushed every file and wrote
+//! `summary.json` with `"status": "interrupted"` ([`StopSignals`]). A second SIGINT ends
+//! the program at once (the frames written are whole; `summary.json` stays the one written
+//! at the start, `"status": "started"`).
+
+mod signals;
+
+pub use signals::{Signal, StopSignals};
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -167,13 +175,15 @@ impl Args {
     }
 }
 
-/// Progress reporting of the program: protocol lines or plain notices.
-struct Reporter {
+/// Progress reporting of the program: protocol lines or plain notices; stop requests from
+/// the signals.
+struct Reporter<'a> {
     protocol: bool,
     last: Instant,
+    signals: Option<&'a StopSignals>,
 }
 
-impl Observer for Reporter {
+impl Observer for Reporter<'_> {
     fn frame(&mut self, _f: &Frame<'_>) {}
     fn progress(&mut self, t: f64) {
         if self.protocol && self.last.elapsed() >= Duration::from_millis(50) {
@@ -191,6 +201,9 @@ impl Observer for Reporter {
             eprintln!("note: {m}");
         }
     }
+    fn stop_requested(&mut self) -> Option<&'static str> {
+        self.signals?.received().map(Signal::name)
+    }
 }
 
 /// Run the program of a compiled model `M` with the process arguments (see the module
@@ -205,7 +218,8 @@ pub fn main<M: CompiledModel>() -> ExitCode {
     }
 }
 
-/// Run a compiled model with parsed arguments.
+/// Run a compiled model with parsed arguments. For the time of the run, SIGINT and SIGTERM
+/// are stop requests ([`StopSignals`]; see the module doc for the exit codes).
 pub fn run_with<M: CompiledModel>(args: &Args) -> ExitCode {
     let fail = |e: String| {
         eprintln!("error: {e}");
@@ -254,21 +268,30 @@ pub fn run_with<M: CompiledModel>(args: &Args) -> ExitCode {
         step: cfg.step,
         duration: cfg.duration,
     };
+    let signals = match StopSignals::install() {
+        Ok(s) => Some(s),
+        Err(e) => {
+            eprintln!(
+                "warning: SIGINT and SIGTERM will end the run at once, without its summary: {e}"
+            );
+            None
+        }
+    };
     let mut rep = Reporter {
         protocol: args.progress,
         last: Instant::now(),
+        signals: signals.as_ref(),
     };
-    match run_loop::run_to_dir(&sys, &cfg, meta, &scene.simulate.output, &dir, &mut rep) {
+    let result = run_loop::run_to_dir(&sys, &cfg, meta, &scene.simulate.output, &dir, &mut rep);
+    // the run is over: a signal ends the program at once again
+    drop(signals);
+    match result {
         Ok((report, summary)) => {
             if !args.progress && !args.quiet {
                 println!(
                     "{} — {} with {}: {} steps to t = {:.6} s in {:.3} s; output in {}",
                     summary.model,
-                    if report.finished {
-                        "finished"
-                    } else {
-                        "STOPPED"
-                    },
+                    summary.status().word(),
                     summary.method,
                     summary.steps,
                     summary.final_time,
@@ -279,6 +302,12 @@ pub fn run_with<M: CompiledModel>(args: &Args) -> ExitCode {
                     eprintln!("error: {f}");
                 }
             }
+            if let Some(i) = &report.interrupted {
+                if !args.progress {
+                    eprintln!("{i}; every frame up to then is in {}", dir.display());
+                }
+                return exit_code(i);
+            }
             if report.finished {
                 ExitCode::SUCCESS
             } else {
@@ -287,6 +316,12 @@ pub fn run_with<M: CompiledModel>(args: &Args) -> ExitCode {
         }
         Err(e) => fail(format!("writing the output folder {}: {e}", dir.display())),
     }
+}
+
+/// The exit code of an interrupted run: 130 for SIGINT, 143 for SIGTERM
+/// ([`Signal::exit_code`]), 1 for a request that was no signal.
+pub fn exit_code(i: &crate::driver::run_loop::Interruption) -> ExitCode {
+    ExitCode::from(Signal::from_name(&i.by).map_or(1, Signal::exit_code))
 }
 
 #[cfg(test)]

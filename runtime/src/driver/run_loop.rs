@@ -25,6 +25,17 @@
 //! Each stop carries the simulated time, step, where it started, the quantity and its value,
 //! the likely cause and what to try. With [`OnFailure::HalveStep`] the run restarts from the
 //! last good frame with half the step, and says so through [`Observer::notice`].
+//!
+//! ## Stopping from outside
+//! After every step the run asks its observer whether to stop
+//! ([`Observer::stop_requested`]; by default never). When it says so, the run ends there as
+//! an interruption, not a failure: the state of that step is handed out as the last frame
+//! (whatever the output rate), and the report's [`RunReport::interrupted`] says by what, at
+//! which time and step. The loop knows nothing of signals: `mbdc run` and the program of a
+//! compiled scene answer from a flag their SIGINT and SIGTERM handlers set
+//! ([`crate::app::StopSignals`]); a program of your own can answer from anything (a cancel
+//! button, a deadline), as long as the answer is cheap — an atomic load — and allocates
+//! nothing, since it is asked once per step.
 
 use crate::contract::scene::MethodSpec;
 use crate::contract::system::{ConstraintEval, Layout, Need, RowKind, System};
@@ -115,9 +126,16 @@ pub trait Observer {
     fn progress(&mut self, _t: f64) {}
     /// A message for the user (retries, warnings).
     fn notice(&mut self, _message: &str) {}
+    /// Asked once per step, after the step and the watchdog: `Some(by)` ends the run there
+    /// as an interruption by `by` (a signal's name such as `"SIGINT"`, or the requester's
+    /// words), with the state of that step as the last frame. Called in every step, so it
+    /// must be cheap (an atomic load) and must not allocate. Default: never.
+    fn stop_requested(&mut self) -> Option<&'static str> {
+        None
+    }
 }
 
-pub use crate::driver::output::Failure;
+pub use crate::driver::output::{Failure, Interruption};
 
 impl std::fmt::Display for Failure {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
@@ -146,8 +164,10 @@ pub struct RunReport {
     pub step: f64,
     /// Whether the run reached `duration`.
     pub finished: bool,
-    /// The failure, if it stopped early.
+    /// The failure, if it stopped early because it could not continue.
     pub failure: Option<Failure>,
+    /// The interruption, if it was stopped from outside ([`Observer::stop_requested`]).
+    pub interrupted: Option<Interruption>,
     /// Retries with a halved step.
     pub retries: u32,
     /// Largest holonomic violation seen after any step, and the joint.
@@ -326,6 +346,7 @@ pub fn run<S: System>(sys: &S, cfg: &RunConfig, obs: &mut dyn Observer) -> RunRe
         step: h,
         finished: false,
         failure: None,
+        interrupted: None,
         retries: 0,
         max_violation: (0.0, String::new()),
         max_relative_violation: (0.0, String::new(), 0.0),
@@ -432,17 +453,31 @@ pub fn run<S: System>(sys: &S, cfg: &RunConfig, obs: &mut dyn Observer) -> RunRe
                     }
                 }
             }
+            // a stop from outside, asked after every step but the last (a run that reached
+            // its end has finished, whatever arrives then)
+            if k < n_total {
+                if let Some(by) = obs.stop_requested() {
+                    if k % every != 0 {
+                        // the state where the run stops is its last frame
+                        emit(sys, &st, report.steps, &mut probe, obs, &ew);
+                    }
+                    report.interrupted = Some(Interruption {
+                        by: by.to_string(),
+                        time: st.t,
+                        step: report.steps,
+                    });
+                    report.t_end = st.t;
+                    report.stats = stats(integ.as_ref());
+                    break 'attempt;
+                }
+            }
             if k % 16 == 0 {
                 obs.progress(st.t);
             }
         }
         report.finished = true;
         report.t_end = start.t;
-        report.stats = integ
-            .stats()
-            .into_iter()
-            .map(|(n, v)| (n.to_string(), v))
-            .collect();
+        report.stats = stats(integ.as_ref());
         if let Some(m) = integ.end_notice() {
             report.warnings.push(m);
         }
@@ -467,6 +502,15 @@ pub fn run<S: System>(sys: &S, cfg: &RunConfig, obs: &mut dyn Observer) -> RunRe
         obs.notice(w);
     }
     report
+}
+
+/// The method's statistics, named.
+fn stats<S: System>(integ: &dyn integrators::Integrator<S>) -> Vec<(String, f64)> {
+    integ
+        .stats()
+        .into_iter()
+        .map(|(n, v)| (n.to_string(), v))
+        .collect()
 }
 
 /// Above this fraction of a joint's own length ([`joint_lengths`]), the run's violation is
@@ -704,14 +748,21 @@ fn check<S: System>(
                     who = i;
                 }
             }
+            // a scene of meshes alone has no body to name
+            let location = if !layout.meshes.is_empty() && st.mesh_kinetic() >= best {
+                match layout.meshes.blocks.as_slice() {
+                    [b] => format!("mesh '{}'", b.name),
+                    _ => "the meshes".into(),
+                }
+            } else if who < layout.body_names.len() {
+                format!("body '{}'", layout.body_names[who])
+            } else {
+                "system".into()
+            };
             return Some(Failure {
                 time: st.t,
                 step,
-                // A scene of meshes alone has no body to name.
-                location: layout
-                    .body_names
-                    .get(who)
-                    .map_or_else(|| "the meshes".to_string(), |n| format!("body '{n}'")),
+                location,
                 quantity: "relative energy growth".into(),
                 value: growth,
                 cause: "energy grows although the scene has no energy source: the integration is unstable (step above the stability limit, or stiff springs or fast spin for an explicit method)".into(),
@@ -877,11 +928,17 @@ impl Observer for ToWriter<'_> {
     fn notice(&mut self, m: &str) {
         self.inner.notice(m);
     }
+    fn stop_requested(&mut self) -> Option<&'static str> {
+        self.inner.stop_requested()
+    }
 }
 
 /// Run `sys` and write its output folder (`bodies.csv`, `energy.csv`, `constraints.csv` as
-/// `spec` asks, and `summary.json`, also when the run fails). Frames are written while the
-/// run proceeds, so a run that is stopped keeps everything up to its last frame.
+/// `spec` asks, and `summary.json`, also when the run fails or is interrupted). Frames are
+/// written while the run proceeds, so a run that is stopped keeps everything up to its last
+/// frame. `progress` is asked after every step whether to stop
+/// ([`Observer::stop_requested`]): then every frame queued so far is written and flushed,
+/// and `summary.json` says `"status": "interrupted"` with the time and step.
 pub fn run_to_dir<S: System>(
     sys: &S,
     cfg: &RunConfig,
@@ -912,6 +969,7 @@ pub fn run_to_dir<S: System>(
     summary.wall_time = t0.elapsed().as_secs_f64();
     summary.finished = report.finished;
     summary.failure = report.failure.clone();
+    summary.interrupted = report.interrupted.clone();
     summary.max_constraint_violation = Some(report.max_violation.0);
     summary.max_violation_joint =
         (!report.max_violation.1.is_empty()).then(|| report.max_violation.1.clone());
@@ -1110,6 +1168,172 @@ mod tests {
             r.max_relative_violation
         );
         assert!(notices.is_empty(), "{notices:?}");
+    }
+
+    /// Stops when asked for the `at`-th time, and records the frames (step, t).
+    struct StopAt {
+        at: u64,
+        asked: u64,
+        frames: Vec<(u64, f64)>,
+    }
+    impl Observer for StopAt {
+        fn frame(&mut self, f: &Frame<'_>) {
+            self.frames.push((f.step, f.state.t));
+        }
+        fn stop_requested(&mut self) -> Option<&'static str> {
+            self.asked += 1;
+            (self.asked >= self.at).then_some("SIGTERM")
+        }
+    }
+
+    fn pendulum_config(every: u32) -> RunConfig {
+        RunConfig {
+            duration: 0.1,
+            step: 1e-3,
+            method: MethodSpec::Staggered(StaggeredOptions::default()),
+            every,
+            on_failure: OnFailure::Stop,
+            watchdog: Watchdog::for_scale(1.0, false),
+        }
+    }
+
+    /// A stop requested from outside (a signal, through the observer; issue 22) ends the run
+    /// after the step in which it was asked, as an interruption and not a failure: the state
+    /// of that step is the last frame also between output frames (step 25 with a frame every
+    /// 10), the report's time is that frame's time, the request is asked once per step, and
+    /// the method's statistics are kept. On an output step the frame is not repeated. A
+    /// request after the last step changes nothing: the run has finished. Reference: the
+    /// same run without requests, whose frames up to there are the same.
+    #[test]
+    fn a_stop_request_ends_the_run_after_its_step() {
+        let sys = RodPendulum::new(1.0, 1.0, 0.01, 1.0);
+        let cfg = pendulum_config(10);
+        let mut full = StopAt {
+            at: u64::MAX,
+            asked: 0,
+            frames: vec![],
+        };
+        let r = run(&sys, &cfg, &mut full);
+        assert!(r.finished && r.interrupted.is_none(), "{r:?}");
+        // asked after every step but the last
+        assert_eq!(full.asked, 99);
+
+        let mut obs = StopAt {
+            at: 25,
+            asked: 0,
+            frames: vec![],
+        };
+        let r = run(&sys, &cfg, &mut obs);
+        assert!(!r.finished && r.failure.is_none());
+        let i = r.interrupted.clone().expect("interrupted");
+        assert_eq!((i.by.as_str(), i.step), ("SIGTERM", 25));
+        assert_eq!(obs.asked, 25);
+        assert_eq!(r.steps, 25);
+        let steps: Vec<u64> = obs.frames.iter().map(|f| f.0).collect();
+        assert_eq!(steps, [0, 10, 20, 25]);
+        let last_t = obs.frames.last().unwrap().1;
+        assert_eq!(i.time.to_bits(), last_t.to_bits());
+        assert_eq!(r.t_end.to_bits(), last_t.to_bits());
+        assert!((last_t - 0.025).abs() < 1e-12, "{last_t}");
+        assert_eq!(obs.frames[..3], full.frames[..3]);
+        assert!(!r.stats.is_empty());
+        assert_eq!(
+            i.to_string(),
+            "interrupted by SIGTERM at t = 0.025000 s (step 25)"
+        );
+
+        let mut obs = StopAt {
+            at: 30,
+            asked: 0,
+            frames: vec![],
+        };
+        let r = run(&sys, &cfg, &mut obs);
+        let steps: Vec<u64> = obs.frames.iter().map(|f| f.0).collect();
+        assert_eq!(steps, [0, 10, 20, 30]);
+        assert_eq!(r.interrupted.expect("interrupted").step, 30);
+
+        let mut obs = StopAt {
+            at: 100,
+            asked: 0,
+            frames: vec![],
+        };
+        let r = run(&sys, &cfg, &mut obs);
+        assert!(r.finished && r.interrupted.is_none(), "{r:?}");
+    }
+
+    /// An interrupted run's folder (issue 22): `summary.json` says `"status": "interrupted"`,
+    /// by what, at the time and step of the last frame of `bodies.csv`, whose rows are whole;
+    /// the summary written at the start says `"status": "started"` (what a killed run
+    /// leaves), and a `summary.json` written before the status existed is read with the
+    /// status its fields give.
+    #[test]
+    fn an_interrupted_run_writes_its_reason_into_the_summary() {
+        use crate::contract::scene::OutputSpec;
+        use crate::driver::output::{RunMeta, RunStatus, Summary};
+        let dir = tempfile::tempdir().unwrap();
+        let sys = RodPendulum::new(1.0, 1.0, 0.01, 1.0);
+        let cfg = pendulum_config(10);
+        let meta = RunMeta {
+            model: "rod".into(),
+            method: "staggered".into(),
+            step: cfg.step,
+            duration: cfg.duration,
+        };
+        let spec = OutputSpec {
+            every: 10,
+            bodies: true,
+            energy: true,
+            constraints: true,
+        };
+        let mut obs = StopAt {
+            at: 47,
+            asked: 0,
+            frames: vec![],
+        };
+        let (report, summary) =
+            run_to_dir(&sys, &cfg, meta.clone(), &spec, dir.path(), &mut obs).unwrap();
+        assert_eq!(summary.status(), RunStatus::Interrupted);
+        assert_eq!(summary.interrupted, report.interrupted);
+        let text = std::fs::read_to_string(dir.path().join("summary.json")).unwrap();
+        assert!(text.contains("\"status\": \"interrupted\""), "{text}");
+        assert!(text.contains("\"by\": \"SIGTERM\""), "{text}");
+        let back = Summary::read(&dir.path().join("summary.json")).unwrap();
+        let i = back.interrupted.clone().expect("interrupted");
+        assert_eq!((i.step, back.steps, back.frames), (47, 47, 6));
+        assert!(!back.finished && back.failure.is_none());
+        for file in ["bodies.csv", "energy.csv", "constraints.csv"] {
+            let csv = std::fs::read_to_string(dir.path().join(file)).unwrap();
+            assert!(csv.ends_with('\n'), "{file}");
+            let mut lines = csv.lines();
+            let columns = lines.next().unwrap().split(',').count();
+            let rows: Vec<&str> = lines.collect();
+            assert_eq!(rows.len(), 6, "{file}");
+            assert!(
+                rows.iter().all(|r| r.split(',').count() == columns),
+                "{file}"
+            );
+            let t: f64 = rows[5].split(',').next().unwrap().parse().unwrap();
+            assert_eq!(t.to_bits(), i.time.to_bits(), "{file}");
+        }
+        // the placeholder of a run that never finished, and an old summary
+        let started = Summary::started(&meta);
+        assert_eq!(started.status(), RunStatus::Started);
+        let w = crate::driver::output::OutputWriter::create(
+            dir.path(),
+            sys.layout(),
+            &spec,
+            meta.clone(),
+        )
+        .unwrap();
+        let text = std::fs::read_to_string(dir.path().join("summary.json")).unwrap();
+        assert!(text.starts_with("{\n  \"status\": \"started\","), "{text}");
+        drop(w);
+        let mut old: serde_json::Value = serde_json::from_str(&text).unwrap();
+        old.as_object_mut().unwrap().remove("status");
+        old.as_object_mut().unwrap().remove("interrupted");
+        old["finished"] = true.into();
+        let old: Summary = serde_json::from_value(old).unwrap();
+        assert_eq!(old.status(), RunStatus::Finished);
     }
 
     #[test]

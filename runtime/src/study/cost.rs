@@ -138,6 +138,7 @@ mod tests {
             length_scale: 1.0,
             energy_sources: false,
             fits: vec![],
+            interrupted: None,
         }
     }
 

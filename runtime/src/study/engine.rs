@@ -146,7 +146,8 @@ impl<'s> Study<'s> {
         let frame_dt = per_frame * h_max;
 
         let mut runs = Vec::new();
-        for (mi, m) in self.methods.iter().enumerate() {
+        let mut interrupted = None;
+        'runs: for (mi, m) in self.methods.iter().enumerate() {
             for &h in steps {
                 let every = (frame_dt / h).round().max(1.0) as u32;
                 let req = Request {
@@ -157,6 +158,12 @@ impl<'s> Study<'s> {
                     keep: true,
                 };
                 let (outcome, repetitions) = measure_run(runner, &req, self.options.min_time)?;
+                // SIGINT or SIGTERM in a program that handles them (`mbdc sweep`): the run
+                // may have been cut, so it is left out, and the study ends with what it has
+                if let Some(s) = crate::app::StopSignals::pending() {
+                    interrupted = Some(s.name().to_string());
+                    break 'runs;
+                }
                 let run = StudyRun {
                     method: mi,
                     step: h,
@@ -170,7 +177,11 @@ impl<'s> Study<'s> {
             }
         }
 
-        let (info, solution) = self.reference(&runs, progress)?;
+        let (info, solution) = self.reference(&runs, progress, interrupted.as_deref())?;
+        // a signal during the numerical reference stopped it (it is unavailable then)
+        if interrupted.is_none() {
+            interrupted = crate::app::StopSignals::pending().map(|s| s.name().to_string());
+        }
         if let Some(sol) = &solution {
             for r in &mut runs {
                 if r.outcome.status.is_ok() {
@@ -251,14 +262,17 @@ impl<'s> Study<'s> {
             length_scale,
             energy_sources: crate::app::energy_sources(self.scene),
             fits,
+            interrupted,
         })
     }
 
-    /// The reference: the scene's functions or table, or a numerical run.
+    /// The reference: the scene's functions or table, or a numerical run (not after an
+    /// interruption by `interrupted`: it is the longest run of all).
     fn reference(
         &self,
         runs: &[StudyRun],
         progress: &mut dyn Progress,
+        interrupted: Option<&str>,
     ) -> Result<(ReferenceInfo, Option<Box<dyn RefSolution>>), StudyError> {
         if let Some(a) = Analytic::new(self.scene) {
             return Ok((ReferenceInfo::Analytic, Some(Box::new(a))));
@@ -272,6 +286,14 @@ impl<'s> Study<'s> {
             let path = base.join(table);
             let t = Table::read(&path, self.scene)?;
             return Ok((ReferenceInfo::Table(path), Some(Box::new(t))));
+        }
+        if let Some(by) = interrupted {
+            return Ok((
+                ReferenceInfo::Unavailable(format!(
+                    "the sweep was interrupted by {by} before its numerical reference"
+                )),
+                None,
+            ));
         }
         let h_min = self.steps().iter().copied().fold(f64::INFINITY, f64::min);
         let h_ref = h_min / f64::from(self.options.reference_refine);

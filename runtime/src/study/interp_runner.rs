@@ -30,6 +30,12 @@ impl Observer for Collect {
             self.track.push_frame(f);
         }
     }
+    /// A program that installed [`crate::app::StopSignals`] (`mbdc sweep --interp`) stops
+    /// the run on SIGINT or SIGTERM; the study then leaves it out and stops
+    /// ([`super::Study::run`]).
+    fn stop_requested(&mut self) -> Option<&'static str> {
+        crate::app::StopSignals::pending().map(crate::app::Signal::name)
+    }
 }
 
 /// Runs through the interpreter in this process.
@@ -88,6 +94,7 @@ impl InterpRunner {
                 cause: format!("the runtime panicked: {msg}"),
                 hint: None,
             }),
+            interrupted: None,
             retries: 0,
             max_violation: (0.0, String::new()),
             max_relative_violation: (0.0, String::new(), 0.0),

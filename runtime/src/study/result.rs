@@ -57,6 +57,12 @@ pub struct StudyResult {
     pub energy_sources: bool,
     /// Per method: fits of the primary and the secondary measure.
     pub fits: Vec<(Fit, Option<Fit>)>,
+    /// The signal that stopped the study (`SIGINT`, `SIGTERM`) in a program that handles
+    /// them ([`crate::app::StopSignals`]): during the runs, the runs are those done before
+    /// it (the run it cut is left out) and a numerical reference is not computed; during
+    /// the numerical reference, the runs are all there and the reference is not
+    /// ([`ReferenceInfo::Unavailable`] either way).
+    pub interrupted: Option<String>,
 }
 
 impl StudyResult {

@@ -74,7 +74,10 @@ impl Status {
             None if r.finished => Status::Ok,
             None => Status::Stopped {
                 t: r.t_end,
-                why: "the run ended early".into(),
+                why: r
+                    .interrupted
+                    .as_ref()
+                    .map_or_else(|| "the run ended early".into(), ToString::to_string),
             },
             Some(f) => classify(f.time, &f.quantity, &f.location, f.value, &f.cause),
         }

@@ -113,6 +113,11 @@ impl Observer for Sampler<'_> {
         cur.push_frame(f);
         self.frame_track(cur);
     }
+    /// The reference run stops on SIGINT or SIGTERM in a program that handles them (see
+    /// [`crate::study::InterpRunner`]'s runs).
+    fn stop_requested(&mut self) -> Option<&'static str> {
+        crate::app::StopSignals::pending().map(crate::app::Signal::name)
+    }
 }
 
 #[cfg(test)]

@@ -194,6 +194,7 @@ pub fn json(r: &StudyResult) -> serde_json::Value {
             })).collect::<Vec<_>>(),
         })).collect::<Vec<_>>(),
         "skipped_methods": r.skipped.iter().map(|(n, w)| json!({"name": n, "why": w})).collect::<Vec<_>>(),
+        "interrupted": r.interrupted,
         "runs": runs,
     })
 }
@@ -620,6 +621,12 @@ pub fn write_all(r: &StudyResult, dir: &Path) -> Result<(), String> {
         r.model, r.duration, r.runner
     );
     println!("Steps: {}.", r.steps_note);
+    if let Some(by) = &r.interrupted {
+        println!(
+            "Interrupted by {by}: the {} run(s) done before it (the run in progress is left out).",
+            r.runs.len()
+        );
+    }
     if let Some(e) = &r.estimate {
         println!(
             "Stability: ω_max ≈ {:.4} rad/s ({}): explicit limit h ≤ 2/ω_max = {} s.",
@@ -739,6 +746,7 @@ mod tests {
             length_scale: 1.0,
             energy_sources: false,
             fits: vec![],
+            interrupted: None,
         }
     }
 

@@ -184,7 +184,8 @@ impl Runner for CompiledRunner {
         // still cost something: keep it positive so that it stays on the log-scale
         // diagram (at the accounting's resolution) instead of falling off it.
         let cpu_time = (children_cpu_time() - c0 - self.baseline).max(CPU_RESOLUTION);
-        if !matches!(o.status.code(), Some(0 | 1)) {
+        // 130 and 143: interrupted by SIGINT or SIGTERM, with its summary written
+        if !matches!(o.status.code(), Some(0 | 1 | 130 | 143)) {
             return Err(RunnerError(format!(
                 "the scene's program {} failed ({}): {}",
                 self.program.display(),
@@ -196,6 +197,14 @@ impl Runner for CompiledRunner {
             Summary::read(&out.join("summary.json")).map_err(|e| RunnerError(e.to_string()))?;
         let status = match &summary.failure {
             None if summary.finished => Status::Ok,
+            None if summary.interrupted.is_some() => Status::Stopped {
+                t: summary.final_time,
+                why: summary
+                    .interrupted
+                    .as_ref()
+                    .map(ToString::to_string)
+                    .unwrap_or_default(),
+            },
             None => Status::Stopped {
                 t: summary.final_time,
                 why: "the run ended early".into(),

@@ -32,9 +32,10 @@
 //!   [`OutputWriter::finish`].
 //! - **Numbers** are written in the shortest decimal form that parses back to the same
 //!   `f64` (ryu), so a CSV round trip is exact; non-finite values are `NaN`, `inf`, `-inf`.
-//! - **summary.json** is written at creation with `finished: false` (so even a killed run
-//!   leaves one) and rewritten atomically (temporary file + rename) by `finish`, also on
-//!   failure.
+//! - **summary.json** is written at creation with `"status": "started"` and `finished:
+//!   false` (so even a killed run leaves one, and `mbdc plot` can tell that it never
+//!   finished) and rewritten atomically (temporary file + rename) by `finish`, also on
+//!   failure or interruption ([`RunStatus`]).
 //!
 //! # Files
 //!
@@ -249,10 +250,66 @@ pub struct Failure {
     pub hint: Option<String>,
 }
 
+/// A run stopped from outside before its end: by a signal (`SIGINT`, `SIGTERM`) or another
+/// request ([`crate::driver::run_loop::Observer::stop_requested`]). Not a failure: the state
+/// was fine; the `interrupted` object of `summary.json`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Interruption {
+    /// What asked the run to stop: the signal's name, or the requester's words.
+    pub by: String,
+    /// Simulated time reached (the time of the last step taken, which is also the time of
+    /// the last frame written), s.
+    #[serde(with = "json::f64_any")]
+    pub time: f64,
+    /// Steps taken.
+    pub step: u64,
+}
+
+impl std::fmt::Display for Interruption {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "interrupted by {} at t = {:.6} s (step {})",
+            self.by, self.time, self.step
+        )
+    }
+}
+
+/// Where a run is, as its `summary.json` says: the `status` field, derived from the other
+/// fields ([`Summary::status`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum RunStatus {
+    /// The summary written when the run started and never replaced: the run is still going,
+    /// or its process ended without a word (SIGKILL, a crash, a power cut). The frames on
+    /// disk are whole up to the last one written.
+    Started,
+    /// The run reached its duration.
+    Finished,
+    /// The run stopped because it could not continue (the `failure` object says why).
+    Failed,
+    /// The run was stopped from outside (the `interrupted` object says by what, and when).
+    Interrupted,
+}
+
+impl RunStatus {
+    /// The word for it on a terminal.
+    pub fn word(self) -> &'static str {
+        match self {
+            RunStatus::Started => "did not finish",
+            RunStatus::Finished => "finished",
+            RunStatus::Failed => "STOPPED",
+            RunStatus::Interrupted => "interrupted",
+        }
+    }
+}
+
 /// The content of `summary.json`.
 ///
 /// Non-finite numbers are written as the strings `"NaN"`, `"inf"`, `"-inf"` (JSON has
-/// no such numbers) and read back.
+/// no such numbers) and read back. The file also has a `status` field
+/// ([`Summary::status`]: `started`, `finished`, `failed`, `interrupted`), written first;
+/// it is derived from the other fields, so it is not read back.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Summary {
     /// Model name.
@@ -277,6 +334,9 @@ pub struct Summary {
     pub finished: bool,
     /// Why it stopped early.
     pub failure: Option<Failure>,
+    /// Whether, by what and when it was stopped from outside (a signal).
+    #[serde(default)]
+    pub interrupted: Option<Interruption>,
     /// Largest holonomic constraint violation. `None` in the summary given to
     /// [`OutputWriter::finish`]: the largest over the written frames is filled in.
     #[serde(with = "json::opt_f64_any")]
@@ -305,11 +365,27 @@ impl Summary {
             wall_time: 0.0,
             finished: false,
             failure: None,
+            interrupted: None,
             max_constraint_violation: None,
             max_violation_joint: None,
             max_energy_drift: None,
             frames: 0,
             extra: BTreeMap::new(),
+        }
+    }
+
+    /// Where the run is: finished, failed (`failure`), interrupted (`interrupted`), or
+    /// none of these — the summary written at the start, never replaced
+    /// ([`RunStatus::Started`]).
+    pub fn status(&self) -> RunStatus {
+        if self.finished {
+            RunStatus::Finished
+        } else if self.interrupted.is_some() {
+            RunStatus::Interrupted
+        } else if self.failure.is_some() {
+            RunStatus::Failed
+        } else {
+            RunStatus::Started
         }
     }
 
@@ -874,11 +950,23 @@ impl Drop for OutputWriter {
     }
 }
 
+/// `summary.json` as written: the derived status first, then the summary's fields.
+#[derive(Serialize)]
+struct Written<'a> {
+    status: RunStatus,
+    #[serde(flatten)]
+    summary: &'a Summary,
+}
+
 /// Write `summary.json` atomically (temporary file, then rename).
 fn write_summary(dir: &Path, s: &Summary) -> Result<(), OutputError> {
     let path = dir.join("summary.json");
     let tmp = dir.join(".summary.json.tmp");
-    let text = serde_json::to_string_pretty(s).map_err(|e| OutputError::Json {
+    let written = Written {
+        status: s.status(),
+        summary: s,
+    };
+    let text = serde_json::to_string_pretty(&written).map_err(|e| OutputError::Json {
         path: path.clone(),
         message: e.to_string(),
     })?;
