@@ -227,9 +227,15 @@ fn mesh_energy_figure(
         Series::line("strain", color(1), xy(t, col("strain"))),
         Series::line("work of the loads", color(2), xy(t, col("external_work"))),
     ];
-    for (i, n) in ["hourglass", "foundation", "dissipated", "plastic", "tie_work"]
-        .iter()
-        .enumerate()
+    for (i, n) in [
+        "hourglass",
+        "foundation",
+        "dissipated",
+        "plastic",
+        "tie_work",
+    ]
+    .iter()
+    .enumerate()
     {
         if col(n).iter().any(|v| *v != 0.0) {
             series.push(Series::line(*n, color(3 + i), xy(t, col(n))));
@@ -244,8 +250,9 @@ fn mesh_energy_figure(
         ..Panel::default()
     };
     let balance = Panel {
-        title: "Balance K + U + U_hg + U_f − W − W_tie + D + D_p (constant up to the method's error)"
-            .into(),
+        title:
+            "Balance K + U + U_hg + U_f − W − W_tie + D + D_p (constant up to the method's error)"
+                .into(),
         x: Axis::linear(TIME),
         y: Axis::linear("energy (J)"),
         series: vec![Series::line("balance", BLACKISH, xy(t, col("balance")))],

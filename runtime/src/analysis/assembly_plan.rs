@@ -228,6 +228,7 @@ mod tests {
                 e: 1.0,
                 nu: 0.3,
                 rho: 1.0,
+                plastic: None,
             },
             thickness: 1.0,
             formulation: MeshFormulation::default(),

@@ -340,6 +340,7 @@ mod tests {
                     e: 1e9,
                     nu: 0.3,
                     rho: 2000.0,
+                    plastic: None,
                 },
                 thickness: 1e-3,
                 nodes: vec![[1.0, 0.0, 0.0], [2.0, 0.0, 0.0], [3.0, 0.0, 0.0]],

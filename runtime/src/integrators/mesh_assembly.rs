@@ -70,6 +70,10 @@ pub trait Column: Send + Sized {
         Self: 'b;
     /// Number of elements.
     fn len(&self) -> usize;
+    /// Whether there is no element.
+    fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
     /// Split at element `mid`.
     fn split_at(self, mid: usize) -> (Self, Self);
     /// Element `i`'s entry.
@@ -107,7 +111,7 @@ pub struct Runs<'s, T> {
 impl<'s, T> Runs<'s, T> {
     /// `data` cut into runs of `per` (≥ 1) values, one run per element.
     pub fn new(data: &'s mut [T], per: usize) -> Self {
-        debug_assert!(per > 0 && data.len() % per == 0);
+        debug_assert!(per > 0 && data.len().is_multiple_of(per));
         Runs { data, per }
     }
 }
@@ -123,13 +127,25 @@ impl<T: Send + 'static> Column for Runs<'_, T> {
     }
     fn split_at(self, mid: usize) -> (Self, Self) {
         let (a, b) = self.data.split_at_mut(mid * self.per);
-        (Runs { data: a, per: self.per }, Runs { data: b, per: self.per })
+        (
+            Runs {
+                data: a,
+                per: self.per,
+            },
+            Runs {
+                data: b,
+                per: self.per,
+            },
+        )
     }
     fn row(&mut self, i: usize) -> &mut [T] {
         &mut self.data[i * self.per..(i + 1) * self.per]
     }
     fn view(&mut self) -> Self::View<'_> {
-        Runs { data: &mut *self.data, per: self.per }
+        Runs {
+            data: &mut *self.data,
+            per: self.per,
+        }
     }
 }
 

@@ -563,9 +563,8 @@ impl MeshDynamics {
                 let (ps, pout) = (&mut self.plastic[bi], &mut self.plastic_out[bi]);
                 plastic_block(&mut self.assembly, l, bi, ev, law, (u, v), ps, pout, cols);
             } else {
-                self.assembly.elements(l, bi, cols, |e, fs, (st, sn, sc)| {
-                    one(e, fs, st, sn, sc)
-                });
+                self.assembly
+                    .elements(l, bi, cols, |e, fs, (st, sn, sc)| one(e, fs, st, sn, sc));
             }
             // An inverted element stops the run where it happened.
             if let Some(e) = scalars
