@@ -8,13 +8,17 @@
 //! method's start: a method that does not simulate the scene, a step above a beam's limit, a
 //! dense method on too large a system), found by the runtime's own functions on the interpreted
 //! system. `mbdc check` applies both ([`gate`]), so that it refuses what `mbdc run` refuses, and
-//! `mbdc run` applies both before it builds a compiled program.
+//! `mbdc run` applies both before it builds a compiled program. Last, a run that would write
+//! more than a gigabyte warns with the output interval that would not
+//! ([`mbdc_runtime::output::size_estimate`]).
 
 use std::process::ExitCode;
 
 use mbdc_runtime::app::Settings;
 use mbdc_runtime::integrators::{self, State};
 use mbdc_runtime::interp::Interp;
+use mbdc_runtime::output::size_estimate;
+use mbdc_runtime::run_loop;
 use mbdc_runtime::scene::{MethodSpec, Scene};
 use mbdc_runtime::step_limits;
 use mbdc_runtime::system::System;
@@ -121,5 +125,21 @@ pub fn gate<S: System>(
     start(sys, scene, settings).map_err(|m| {
         eprintln!("error: {m}");
         ExitCode::FAILURE
-    })
+    })?;
+    if !quiet {
+        if let Some(w) = output_warning(sys, scene, settings) {
+            eprintln!("warning: {w}");
+        }
+    }
+    Ok(())
+}
+
+/// The warning of a run that would write more than
+/// [`size_estimate::OUTPUT_WARN_BYTES`], with the output interval that would not.
+pub fn output_warning<S: System>(sys: &S, scene: &Scene, settings: &Settings) -> Option<String> {
+    let h = settings.step.unwrap_or(scene.simulate.step);
+    let duration = settings.duration.unwrap_or(scene.simulate.duration);
+    let every = settings.every.unwrap_or(scene.simulate.output.every);
+    let steps = run_loop::step_count(duration, h);
+    size_estimate::warning(sys.layout(), &scene.simulate.output, steps, every)
 }

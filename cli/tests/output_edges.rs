@@ -88,3 +88,29 @@ fn halve_step_help_and_docs_give_the_runtime_limit() {
         "docs/stability.md"
     );
 }
+
+/// A run that would write more than a gigabyte says so before it starts (`mbdc check`
+/// applies the run's start gate), with its size and the output interval that brings it to
+/// about 100 MB; one that would not, stays silent. The chain of models/ over 1000 s at
+/// 0.1 ms writes 10⁷ frames of its 32 bodies:
+/// 130 GB.
+#[test]
+fn a_run_that_would_fill_a_disk_warns_before_it_starts() {
+    let text = std::fs::read_to_string(root().join("models/chain.mbd")).expect("chain");
+    let long = text.replace("duration 1 s;", "duration 1000 s;");
+    assert_ne!(long, text, "models/chain.mbd changed its simulate block");
+    let dir = scratch("output-size");
+    let file = dir.join("long_chain.mbd");
+    std::fs::write(&file, long).expect("write");
+    let out = mbdc(&["check", s(&file)]);
+    let e = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(0), "{e}");
+    assert!(e.contains("warning: this run will write about"), "{e}");
+    // 10⁷ frames of 13 kB (the 32 bodies' states, their joints' multipliers) → every 2000
+    // steps writes about 65 MB (every 1000: 130 MB, above the 100 MB aimed at)
+    assert!(e.contains(" GB (10000001 frames"), "{e}");
+    assert!(e.contains("`--every 2000`"), "{e}");
+    let out = mbdc(&["check", s(&root().join("models/chain.mbd"))]);
+    let e = String::from_utf8_lossy(&out.stderr);
+    assert!(!e.contains("will write about"), "{e}");
+}

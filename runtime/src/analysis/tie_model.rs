@@ -116,6 +116,10 @@ pub fn apply(scene: &Scene, l: &mut MeshLayout) -> Result<Option<Scene>, MeshErr
             for &n in &s.nodes {
                 let g = (first + n) as u32;
                 if let Some(&prev) = tied_by.get(&g) {
+                    if prev == k {
+                        // the set lists the node twice (a scene file written by hand)
+                        continue;
+                    }
                     let p: &MeshTie = &l.ties[prev];
                     return Err(err(format!(
                         "node {n} is tied twice: by set '{}' to body '{}' and by set '{}' to body '{}'",
@@ -418,6 +422,17 @@ mod tests {
         let (op, ot) = own_centre(&tb, &pose, &tw);
         assert!(op.r.norm() < 1e-15 && ot.v.norm() < 1e-15);
         assert_eq!(apply_to(&scene(vec![])).expect("valid").0, None);
+    }
+
+    /// A scene file whose tied set lists a node twice (the fuzz test's find: it indexed the
+    /// tie being built and panicked) ties the node once.
+    #[test]
+    fn a_set_that_lists_a_node_twice_ties_it_once() {
+        let mut s = scene(vec![MeshCondition::Tie { set: 0, body: 0 }]);
+        s.meshes[0].node_sets[0].nodes = vec![0, 0];
+        let (_, l) = apply_to(&s).expect("valid");
+        assert_eq!(l.ties[0].nodes, vec![0]);
+        assert_eq!(l.ties[0].mass, vec![1.0]);
     }
 
     /// What the compiler reports with spans is refused here too (scenes from JSON): a tie to

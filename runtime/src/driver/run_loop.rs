@@ -118,6 +118,12 @@ pub struct Frame<'a> {
     pub velocity_violation: &'a [f64],
 }
 
+/// Steps of a run over `duration` with step `h`: the last step may end past `duration` by
+/// less than `h` (a relative 10⁻⁹ of a step is forgiven, so that 1 s at 1 ms is 1000 steps).
+pub fn step_count(duration: f64, h: f64) -> u64 {
+    (duration / h - 1e-9).ceil().max(0.0) as u64
+}
+
 /// Receives what a run produces.
 pub trait Observer {
     /// An output frame.
@@ -400,7 +406,7 @@ pub fn run<S: System>(sys: &S, cfg: &RunConfig, obs: &mut dyn Observer) -> RunRe
                 break;
             }
         };
-        let n_total = ((cfg.duration - start.t) / h - 1e-9).ceil().max(0.0) as u64;
+        let n_total = step_count(cfg.duration - start.t, h);
         for k in 1..=n_total {
             let result = integ.step(sys);
             report.steps += 1;

@@ -32,6 +32,9 @@
 //!   [`OutputWriter::finish`].
 //! - **Numbers** are written in the shortest decimal form that parses back to the same
 //!   `f64` (ryu), so a CSV round trip is exact; non-finite values are `NaN`, `inf`, `-inf`.
+//!   The VTK frames use the same form (`1.5e-9`, not `0.0000000015`).
+//! - **Size**: [`size_estimate`] estimates before a run what it will write; `mbdc run`
+//!   warns above 1 GB with the output interval that would not.
 //! - **summary.json** is written at creation with `"status": "started"` and `finished:
 //!   false` (so even a killed run leaves one, and `mbdc plot` can tell that it never
 //!   finished) and rewritten atomically (temporary file + rename) by `finish`, also on
@@ -60,9 +63,11 @@
 mod csv;
 mod frame_pool;
 mod json;
+pub mod size_estimate;
 mod vtk;
 mod vtu;
 
+pub use size_estimate::{estimate, OutputEstimate};
 pub use vtu::{von_mises, MESH_ENERGY_COLUMNS};
 
 use std::collections::BTreeMap;

@@ -113,7 +113,7 @@ impl BeamSeries {
         for beam in &bl.beams {
             for k in 0..=beam.elements {
                 let r = f.poses[beam.first_body + k].r;
-                let _ = writeln!(b, "{} {} {}", r.x, r.y, r.z);
+                push_row(b, &[r.x, r.y, r.z]);
             }
         }
         b.push_str("</DataArray>\n</Points>\n<Lines>\n<DataArray type=\"Int64\" Name=\"connectivity\" format=\"ascii\">\n");
@@ -141,7 +141,7 @@ impl BeamSeries {
             );
             for row in &f.sections {
                 let c = 1 + 3 * k;
-                let _ = writeln!(b, "{} {} {}", row[c], row[c + 1], row[c + 2]);
+                push_row(b, &row[c..c + 3]);
             }
             b.push_str("</DataArray>\n");
         }
@@ -153,4 +153,16 @@ impl BeamSeries {
     pub(crate) fn write_index(&self) -> Result<(), OutputError> {
         self.series.write_index()
     }
+}
+
+/// Append the values of one data row, space-separated, in ryu's shortest round-trip form
+/// (as the CSV files: `1.5e-9`, where `{}` would print `0.0000000015`), and a line end.
+pub(crate) fn push_row(b: &mut String, xs: &[f64]) {
+    for (i, &x) in xs.iter().enumerate() {
+        if i > 0 {
+            b.push(' ');
+        }
+        super::csv::push_f64(b, x);
+    }
+    b.push('\n');
 }

@@ -14,7 +14,7 @@
 use std::fmt::Write as _;
 use std::path::Path;
 
-use super::vtk::PvdSeries;
+use super::vtk::{push_row, PvdSeries};
 use super::{Frame, OutputError};
 use crate::contract::scene::ElementKind;
 use crate::contract::system::Layout;
@@ -71,7 +71,7 @@ impl MeshSeries {
             "<Points>\n<DataArray type=\"Float64\" NumberOfComponents=\"3\" format=\"ascii\">\n",
         );
         for x in &ml.x0 {
-            let _ = writeln!(g, "{} {} {}", x[0], x[1], x[2]);
+            push_row(&mut g, x);
         }
         g.push_str("</DataArray>\n</Points>\n<Cells>\n<DataArray type=\"Int64\" Name=\"connectivity\" format=\"ascii\">\n");
         for b in &ml.blocks {
@@ -127,7 +127,7 @@ impl MeshSeries {
                 "<DataArray type=\"Float64\" Name=\"{what}\" NumberOfComponents=\"3\" format=\"ascii\">"
             );
             for x in data.iter() {
-                let _ = writeln!(b, "{} {} {}", x[0], x[1], x[2]);
+                push_row(b, x);
             }
             b.push_str("</DataArray>\n");
         }
@@ -138,24 +138,24 @@ impl MeshSeries {
                 "<DataArray type=\"Float64\" Name=\"{what}\" NumberOfComponents=\"6\" format=\"ascii\">"
             );
             for s in data.iter() {
-                let _ = writeln!(b, "{} {} {} {} {} {}", s[0], s[1], s[2], s[3], s[4], s[5]);
+                push_row(b, s);
             }
             b.push_str("</DataArray>\n");
         }
         if !f.mesh_plastic_strain.is_empty() {
             b.push_str("<DataArray type=\"Float64\" Name=\"plastic_strain\" NumberOfComponents=\"6\" format=\"ascii\">\n");
             for s in &f.mesh_plastic_strain {
-                let _ = writeln!(b, "{} {} {} {} {} {}", s[0], s[1], s[2], s[3], s[4], s[5]);
+                push_row(b, s);
             }
             b.push_str("</DataArray>\n<DataArray type=\"Float64\" Name=\"equivalent_plastic_strain\" format=\"ascii\">\n");
             for a in &f.mesh_equivalent_plastic_strain {
-                let _ = writeln!(b, "{a}");
+                push_row(b, &[*a]);
             }
             b.push_str("</DataArray>\n");
         }
         b.push_str("<DataArray type=\"Float64\" Name=\"von_mises\" format=\"ascii\">\n");
         for s in &f.mesh_stress {
-            let _ = writeln!(b, "{}", von_mises(s));
+            push_row(b, &[von_mises(s)]);
         }
         b.push_str("</DataArray>\n<DataArray type=\"Int32\" Name=\"mesh\" format=\"ascii\">\n");
         for (i, bl) in ml.blocks.iter().enumerate() {
