@@ -130,7 +130,7 @@ pub fn human_bytes(b: u64) -> String {
 pub fn every_for(layout: &Layout, spec: &OutputSpec, steps: u64, every: u32, target: u64) -> u32 {
     let mut k: u64 = 1;
     loop {
-        for m in [1, 2, 5] {
+        for m in [1u64, 2, 5] {
             let cand = m.saturating_mul(k);
             if cand < u64::from(every.max(1)) {
                 continue;
