@@ -24,7 +24,7 @@
 //! as mbdc errors with the compiler's messages (they mean a bug in the generator, or a broken
 //! toolchain).
 
-use std::io::{BufRead, BufReader, Read};
+use std::io::{BufRead, BufReader, IsTerminal, Read};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::Duration;
@@ -211,6 +211,9 @@ pub fn build(c: &SceneCrate, quiet: bool) -> Result<PathBuf, BuildFailure> {
         s.enable_steady_tick(Duration::from_millis(120));
         s
     });
+    // Without a terminal the spinner draws nothing: a line per phase instead (a CI log, a
+    // pipe), so that a first build's minutes are not silent.
+    let mut phases = (!quiet && !std::io::stderr().is_terminal()).then(PhaseLines::default);
     let mut stderr = child.stderr.take().expect("piped");
     let err_thread = std::thread::spawn(move || {
         let mut s = String::new();
@@ -227,6 +230,12 @@ pub fn build(c: &SceneCrate, quiet: bool) -> Result<PathBuf, BuildFailure> {
         match v["reason"].as_str() {
             Some("compiler-artifact") => {
                 let name = v["target"]["name"].as_str().unwrap_or("");
+                if let Some(p) = &mut phases {
+                    p.artifact(
+                        name == c.package || name == c.package.replace('-', "_"),
+                        v["fresh"].as_bool() == Some(false),
+                    );
+                }
                 if let Some(s) = &spinner {
                     if name == c.package || name == c.package.replace('-', "_") {
                         s.set_message("building scene (first run)");
@@ -261,6 +270,9 @@ pub fn build(c: &SceneCrate, quiet: bool) -> Result<PathBuf, BuildFailure> {
     if let Some(s) = spinner {
         s.finish_and_clear();
     }
+    if let Some(p) = phases {
+        p.done();
+    }
     match status {
         Ok(st) if st.success() => program.ok_or_else(|| BuildFailure {
             reason: "cargo did not report the program it built".into(),
@@ -289,6 +301,50 @@ pub fn build(c: &SceneCrate, quiet: bool) -> Result<PathBuf, BuildFailure> {
             reason: format!("waiting for cargo: {e}"),
             details: cargo_err,
         }),
+    }
+}
+
+/// The build's phases as plain lines, for a stderr that is not a terminal: a line when the
+/// runtime's crates start building (a first run), and what was built in how long when the
+/// build ends — nothing for a warm run, which builds nothing. (cargo reports a crate when it
+/// is done, so the scene's own crate, built last, shows only in the closing line.)
+#[derive(Default)]
+struct PhaseLines {
+    /// When the first crate finished building.
+    start: Option<std::time::Instant>,
+    /// Runtime (dependency) crates built.
+    runtime: usize,
+    /// Whether the scene's crate was built.
+    scene: bool,
+}
+
+impl PhaseLines {
+    /// A `compiler-artifact` message: the scene's own crate or a dependency, built or fresh.
+    fn artifact(&mut self, is_scene: bool, built: bool) {
+        if !built {
+            return;
+        }
+        if is_scene {
+            self.scene = true;
+        } else {
+            if self.runtime == 0 {
+                eprintln!("building the runtime for compiled scenes (once; a few minutes)…");
+            }
+            self.runtime += 1;
+        }
+        self.start.get_or_insert_with(std::time::Instant::now);
+    }
+
+    /// The build ended.
+    fn done(self) {
+        if let Some(t0) = self.start {
+            let what = match (self.runtime, self.scene) {
+                (0, _) => "the scene's program".to_string(),
+                (n, true) => format!("{n} runtime crate(s) and the scene's program"),
+                (n, false) => format!("{n} runtime crate(s)"),
+            };
+            eprintln!("built {what} in {:.1} s", t0.elapsed().as_secs_f64());
+        }
     }
 }
 

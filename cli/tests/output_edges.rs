@@ -114,3 +114,52 @@ fn a_run_that_would_fill_a_disk_warns_before_it_starts() {
     let e = String::from_utf8_lossy(&out.stderr);
     assert!(!e.contains("will write about"), "{e}");
 }
+
+/// A first build's minutes are not silent without a terminal (a CI log, a pipe): a line
+/// when the runtime's crates start building and one with what was built in how long.
+/// cargo is a script that reports two freshly built runtime crates and a program that ends
+/// at once.
+#[cfg(unix)]
+#[test]
+fn a_first_build_prints_its_phases_without_a_terminal() {
+    use std::os::unix::fs::PermissionsExt;
+    let dir = scratch("build-phases");
+    let program = dir.join("program.sh");
+    std::fs::write(&program, "#!/bin/sh\nexit 1\n").expect("program");
+    let cargo = dir.join("cargo.sh");
+    let artifact = |name: &str, fresh: bool, exe: &str| {
+        format!(
+            "echo '{{\"reason\":\"compiler-artifact\",\"target\":{{\"name\":\"{name}\"}},\"fresh\":{fresh}{exe}}}'\n"
+        )
+    };
+    let script = format!(
+        "#!/bin/sh\n{}{}{}",
+        artifact("nalgebra", false, ""),
+        artifact("mbdc_runtime", false, ""),
+        artifact(
+            "stand-in",
+            true,
+            &format!(",\"executable\":\"{}\"", program.display())
+        ),
+    );
+    std::fs::write(&cargo, script).expect("cargo");
+    for p in [&program, &cargo] {
+        std::fs::set_permissions(p, std::fs::Permissions::from_mode(0o755)).expect("chmod");
+    }
+    let out = command()
+        .args(["run", "--duration", "0.01", "-o"])
+        .arg(dir.join("out"))
+        .arg(root().join("models/pendulum.mbd"))
+        .env("CARGO", &cargo)
+        .env("MBDC_BUILD_DIR", dir.join("ws"))
+        .stdin(Stdio::null())
+        .output()
+        .expect("mbdc runs");
+    let e = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        e.contains("building the runtime for compiled scenes (once; a few minutes)…"),
+        "{e}"
+    );
+    assert!(e.contains("built 2 runtime crate(s) in "), "{e}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
