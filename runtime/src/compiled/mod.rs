@@ -40,7 +40,7 @@
 
 use serde::Serialize;
 
-use crate::contract::scene::{Fn1, ForceFrame, Scene, UnaryFn};
+use crate::contract::scene::{ElementKind, Fn1, ForceFrame, Scene, UnaryFn};
 use crate::contract::system::{JointKernel, Pose, System, Twist};
 use crate::interp::{Interp, InterpError, Lock, Term};
 use crate::kernels::contact::{BoxPlane, SpherePlane, SphereSphere};
@@ -357,6 +357,20 @@ pub struct Spec {
     pub locks: bool,
     /// Per item structure ([`Mode::Unrolled`] only).
     pub unrolled: Option<Unrolled>,
+    /// The meshes' element blocks in layout order: which element kernel, elastic or
+    /// plastic, each block runs (its constants are data). Empty without meshes, and then
+    /// left out of the key's JSON, so that rigid scenes keep their keys.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub meshes: Vec<MeshBlock>,
+}
+
+/// The structure of one element block of a mesh: the kernel generated code names for it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+pub struct MeshBlock {
+    /// Element kind (with the plane mode of 2-D kinds).
+    pub kind: ElementKind,
+    /// Whether the material is elastoplastic (the block runs the plastic loop).
+    pub plastic: bool,
 }
 
 impl Spec {
@@ -688,6 +702,16 @@ impl Plan {
             terms: tc,
             locks: !locks.is_empty(),
             unrolled,
+            meshes: interp
+                .layout()
+                .meshes
+                .blocks
+                .iter()
+                .map(|b| MeshBlock {
+                    kind: b.kind,
+                    plastic: b.material.plastic.is_some(),
+                })
+                .collect(),
         };
         Ok(Plan { interp, spec, data })
     }
