@@ -746,14 +746,14 @@ pub fn file(
         }
     };
 
-    // ---- meshes: each block's element loop, monomorphized for its kernel; the kernels'
-    // numbers (material, thickness, quadrature and hourglass constants) stay data in the
-    // layout
+    // ---- meshes: each block's element loop, monomorphized for its kernel (kind and
+    // quadrature variant); the kernels' numbers (material, thickness, B-bar flag, hourglass
+    // coefficient) stay data in the layout
     let (mesh_items, mesh_kernels) = if spec.meshes.is_empty() {
         (quote!(), quote!())
     } else {
         let blocks = spec.meshes.iter().map(|b| {
-            let k = format_ident!("{}", format!("{:?}", b.kind));
+            let k = format_ident!("{}", b.kernel());
             if b.plastic {
                 quote!(BlockKernel::plastic::<#k>())
             } else {
@@ -1029,8 +1029,11 @@ const IMPORTS: &[(&str, &[&str])] = &[
         &[
             "Bar2",
             "Hex8",
+            "Hex8Reduced",
             "Quad4PlaneStrain",
+            "Quad4PlaneStrainReduced",
             "Quad4PlaneStress",
+            "Quad4PlaneStressReduced",
             "Tet4",
             "Tri3PlaneStrain",
             "Tri3PlaneStress",

@@ -30,13 +30,15 @@
 //!
 //! **Meshes: the element kernels in code, their constants in data.** For a scene with
 //! meshes, the spec lists each element block's kernel (element kind, with the plane mode of
-//! 2-D kinds) and whether its material is plastic ([`mbdc_runtime::compiled::MeshBlock`]);
+//! 2-D kinds, and the quadrature variant of hex8 and quad4: full or one point, whose code
+//! paths are separate) and whether its material is plastic
+//! ([`mbdc_runtime::compiled::MeshBlock`]);
 //! the generated module writes the table of the blocks' element loops
 //! (`mbdc_runtime::integrators::mesh_kernels::BlockKernels`), each monomorphized for its
 //! kernel — `BlockKernel::elastic::<Hex8>()` is `elastic_block::<Hex8>` — naming only the
 //! kernels its blocks use, plastic loops only for plastic blocks, and hands it to the
-//! integrators through `System::mesh_kernels`. The material constants, thickness,
-//! quadrature and hourglass coefficient stay data (the mesh layout the interpreter builds),
+//! integrators through `System::mesh_kernels`. The material constants, thickness, B-bar
+//! flag and hourglass coefficient stay data (the mesh layout the interpreter builds),
 //! as joints' geometry does. A rigid scene's code has no mesh tokens at all (the method's
 //! default is "none", which the interpreter also uses: then each block's loop is chosen by
 //! a `match` on its kind before the run). The loops and kernels are the interpreter's, so

@@ -19,11 +19,12 @@
 use std::borrow::Cow;
 
 use super::mesh_assembly::{Assembler, Runs};
+use crate::analysis::mesh_model::options;
 use crate::contract::mesh_layout::{ElementBlock, MeshLayout};
 use crate::contract::scene::ElementKind;
 use crate::kernels::solid::{
-    with_kernel, Elastic, ElementKernel, ElementOptions, ElementResponse, Plastic, PlasticPoints,
-    PlasticResponse, MAX_NODES,
+    reduced, with_kernel, Elastic, ElementKernel, ElementOptions, ElementResponse, Plastic,
+    PlasticPoints, PlasticResponse, MAX_NODES,
 };
 
 /// One block's evaluation constants.
@@ -96,6 +97,8 @@ pub type BlockFn = fn(BlockArgs<'_>);
 pub struct BlockKernel {
     /// The element kind the loop evaluates.
     pub kind: ElementKind,
+    /// Whether it is the one-point variant of the kind's kernel (hex8, quad4).
+    pub reduced: bool,
     /// Whether it is the elastoplastic loop.
     pub plastic: bool,
     /// The loop.
@@ -107,6 +110,7 @@ impl BlockKernel {
     pub const fn elastic<K: ElementKernel>() -> BlockKernel {
         BlockKernel {
             kind: K::KIND,
+            reduced: K::REDUCED,
             plastic: false,
             run: elastic_block::<K>,
         }
@@ -116,14 +120,16 @@ impl BlockKernel {
     pub const fn plastic<K: ElementKernel>() -> BlockKernel {
         BlockKernel {
             kind: K::KIND,
+            reduced: K::REDUCED,
             plastic: true,
             run: plastic_block::<K>,
         }
     }
 
-    /// The loop of a block of `kind`, elastoplastic or not, chosen at run time.
-    pub fn of(kind: ElementKind, plastic: bool) -> BlockKernel {
-        with_kernel!(kind, K => if plastic {
+    /// The loop of a block of `kind` (its one-point variant when `reduced`), elastoplastic
+    /// or not, chosen at run time.
+    pub fn of(kind: ElementKind, reduced: bool, plastic: bool) -> BlockKernel {
+        with_kernel!(kind, reduced, K => if plastic {
             BlockKernel::plastic::<K>()
         } else {
             BlockKernel::elastic::<K>()
@@ -141,13 +147,14 @@ impl BlockKernels {
         BlockKernels(Cow::Borrowed(blocks))
     }
 
-    /// The interpreter's table: each block's loop chosen from its kind and material.
+    /// The interpreter's table: each block's loop chosen from its kind, quadrature and
+    /// material.
     pub fn interpreted(layout: &MeshLayout) -> BlockKernels {
         BlockKernels(Cow::Owned(
             layout
                 .blocks
                 .iter()
-                .map(|b| BlockKernel::of(b.kind, b.material.plastic.is_some()))
+                .map(|b| BlockKernel::of(b.kind, block_reduced(b), b.material.plastic.is_some()))
                 .collect(),
         ))
     }
@@ -168,19 +175,32 @@ impl BlockKernels {
             ));
         }
         self.0.iter().zip(&layout.blocks).find_map(|(k, b)| {
-            let plastic = b.material.plastic.is_some();
-            (k.kind != b.kind || k.plastic != plastic).then(|| {
+            let (reduced, plastic) = (block_reduced(b), b.material.plastic.is_some());
+            let what = |reduced: bool, plastic: bool| {
                 format!(
-                    "mesh '{}': the element kernel is for {:?}{} elements, the mesh has {:?}{}",
+                    "{}{}",
+                    if reduced { " one-point" } else { "" },
+                    if plastic { " plastic" } else { "" }
+                )
+            };
+            (k.kind != b.kind || k.reduced != reduced || k.plastic != plastic).then(|| {
+                format!(
+                    "mesh '{}': the element kernel is for{} {:?} elements, the mesh has{} {:?}",
                     b.name,
+                    what(k.reduced, k.plastic),
                     k.kind,
-                    if k.plastic { " plastic" } else { "" },
+                    what(reduced, plastic),
                     b.kind,
-                    if plastic { " plastic" } else { "" },
                 )
             })
         })
     }
+}
+
+/// Whether a block runs the one-point variant of its kind's kernel
+/// ([`crate::kernels::solid::reduced`]).
+pub fn block_reduced(b: &ElementBlock) -> bool {
+    reduced(b.kind, &options(b).integration)
 }
 
 /// One vector per node of an element (first `K::NODES` rows used).

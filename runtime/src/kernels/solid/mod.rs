@@ -41,7 +41,8 @@
 use crate::contract::scene::ElementKind;
 pub(crate) use element_kernel::with_kernel;
 pub use element_kernel::{
-    Bar2, ElementKernel, Hex8, Quad4PlaneStrain, Quad4PlaneStress, Tet4, Tri3PlaneStrain,
+    kernel_name, reduced, Bar2, ElementKernel, Hex8, Hex8Reduced, Quad4PlaneStrain,
+    Quad4PlaneStrainReduced, Quad4PlaneStress, Quad4PlaneStressReduced, Tet4, Tri3PlaneStrain,
     Tri3PlaneStress,
 };
 pub use plasticity::{Plastic, PlasticPoints, PlasticResponse};
@@ -186,8 +187,9 @@ fn nodes<const N: usize>(x: &[[f64; 3]]) -> &[[f64; 3]; N] {
 
 /// Internal forces, stress, strain and energies of one element.
 ///
-/// `x0`, `u`, `v` hold at least `kind.nodes()` rows. Dispatches to the kind's
-/// [`ElementKernel`] ([`Bar2`], [`Tri3PlaneStress`], …), which calls the per-type kernel
+/// `x0`, `u`, `v` hold at least `kind.nodes()` rows. Dispatches to the [`ElementKernel`] of
+/// the kind and quadrature ([`Bar2`], [`Tri3PlaneStress`], …, [`Hex8`], [`Hex8Reduced`]),
+/// which calls the per-type kernel
 /// ([`bar2::respond`], [`tri3::respond`], [`quad4::respond`], [`tet4::respond`],
 /// [`hex8::respond`]); loops over many elements of one kind call the [`ElementKernel`]
 /// directly instead (monomorphized, no `match` per element). No allocation. For 2-D kinds
@@ -201,7 +203,9 @@ pub fn respond(
     v: &[[f64; 3]],
     out: &mut ElementResponse,
 ) {
-    with_kernel!(kind, K => K::respond(opts, mat, x0, u, v, out))
+    with_kernel!(kind, reduced(kind, &opts.integration), K => {
+        K::respond(opts, mat, x0, u, v, out)
+    })
 }
 
 /// Number of integration points of an element of `kind` evaluated with `opts`: the length
@@ -245,7 +249,9 @@ pub fn respond_plastic(
     points: PlasticPoints<'_>,
     out: &mut ElementResponse,
 ) -> PlasticResponse {
-    with_kernel!(kind, K => K::respond_plastic(opts, mat, plastic, x0, u, v, points, out))
+    with_kernel!(kind, reduced(kind, &opts.integration), K => {
+        K::respond_plastic(opts, mat, plastic, x0, u, v, points, out)
+    })
 }
 
 /// Each node's share of the element's mass (kg), first `kind.nodes()` used.
