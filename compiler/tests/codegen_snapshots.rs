@@ -1,7 +1,7 @@
 //! The generated source under review: insta snapshots of the Rust generated for three small
 //! scenes (every change to the generator shows up as a snapshot diff), "only the effects the
-//! scene calls for" checked on the generated source of several scenes, and the size of the
-//! source of a long chain against a short one.
+//! scene calls for" (and only its meshes' element kernels) checked on the generated source of
+//! several scenes, and the size of the source of a long chain against a short one.
 //!
 //! The scene's JSON is kept out of the source here (`SceneJson::Include`, as `build.rs` and
 //! `mbdc run` generate it): it holds the numbers and source spans, not code.
@@ -11,6 +11,7 @@ use std::path::PathBuf;
 use mbdc_compiler::codegen::{generate, Generated, Options, SceneJson};
 use mbdc_compiler::{load_file, load_str, Override, Scene};
 use mbdc_runtime::compiled::Mode;
+use mbdc_runtime::scene::{HourglassControl, MeshIntegration};
 
 fn models() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../models")
@@ -75,7 +76,9 @@ fn has_any(source: &str, markers: &[&str]) -> bool {
 /// for springs, contact, time functions, locks and gravity is in the generated source exactly
 /// when the scene declares it. (Closed loops need no code of their own in the model: the
 /// loop closure is the integrators' business, through the same constraint rows; the check is
-/// that a closed-loop scene's code differs from an open chain's only by its joints.)
+/// that a closed-loop scene's code differs from an open chain's only by its joints.) Meshes
+/// likewise: a rigid scene's code has no element kernel, and a mesh scene's code names only
+/// the element loops of its own blocks (hex8 for `hex_bar`, no tet4 or quad4).
 #[test]
 fn only_the_effects_the_scene_calls_for() {
     let mut scenes: Vec<(String, Scene)> = [
@@ -122,6 +125,8 @@ fn only_the_effects_the_scene_calls_for() {
             );
             check("locks", on("locks"), &["update_locks", "joint_angle"]);
             check("gravity", on("gravity"), &["forces::gravity"]);
+            // No scene here has a mesh: no element kernel, loop or table.
+            check("meshes", false, ELEMENT_MARKERS);
             // Time functions (and the other scalar functions: force values, curves) exist only
             // for scenes with time dependence, drivers, applied forces or curve joints.
             let functions = on("time_dependence")
@@ -156,7 +161,95 @@ fn only_the_effects_the_scene_calls_for() {
     let four_bar = gen(&load_model("four_bar"), Some(Mode::Unrolled)).source;
     assert_eq!(four_bar.matches("joints::spherical(").count(), 5);
     assert!(!has_any(&four_bar, &["loop", "cut"]));
+
+    // A mesh scene's code names the element loops of its own blocks and no other kernel:
+    // (model, the loops it must name, in block order).
+    let meshes: [(&str, &[&str]); 4] = [
+        ("hex_bar", &["BlockKernel::elastic::<Hex8>()"]),
+        (
+            "plastic_bar",
+            &[
+                "BlockKernel::plastic::<Hex8>()",
+                "BlockKernel::plastic::<Bar2>()",
+            ],
+        ),
+        (
+            "mesh_on_pendulum",
+            &["BlockKernel::elastic::<Quad4PlaneStress>()"],
+        ),
+        ("plate", &["BlockKernel::elastic::<Quad4PlaneStress>()"]),
+    ];
+    for (name, loops) in meshes {
+        let scene = load_model(name);
+        for mode in [Mode::Unrolled, Mode::Tables] {
+            let src = gen(&scene, Some(mode)).source;
+            let code: Vec<&str> = src
+                .lines()
+                .filter(|l| !l.trim_start().starts_with("//"))
+                .collect();
+            let code = code.join("\n");
+            for l in loops {
+                assert!(code.contains(l), "{name} ({mode:?}): no `{l}` in\n{src}");
+            }
+            assert_eq!(
+                code.matches("BlockKernel::").count(),
+                loops.len(),
+                "{name} ({mode:?}): one loop per block"
+            );
+            // Every kernel type it names is one of its blocks'.
+            for k in KERNEL_TYPES {
+                let own = loops.iter().any(|l| l.contains(&format!("<{k}>")));
+                let named = code
+                    .split(|c: char| !c.is_ascii_alphanumeric() && c != '_')
+                    .any(|w| w == *k);
+                assert_eq!(named, own, "{name} ({mode:?}): {k} named: {named}");
+            }
+        }
+    }
+
+    // The quadrature of hex8 and quad4 is a kernel variant: a one-point hex8 mesh names its
+    // own loop and not the fully integrated kernel (its hourglass coefficient is data).
+    let mut one_point = load_model("hex_bar");
+    for m in &mut one_point.meshes {
+        m.formulation.integration = MeshIntegration::Reduced {
+            hourglass: HourglassControl::Viscous { coefficient: 0.1 },
+        };
+    }
+    let src = gen(&one_point, None).source;
+    assert!(
+        src.contains("BlockKernel::elastic::<Hex8Reduced>()"),
+        "{src}"
+    );
+    assert!(!src.contains("<Hex8>") && !src.contains("Hex8,") && !src.contains("Hex8;"));
 }
+
+/// The element kernel types of `mbdc_runtime::solid`, one per element kind and quadrature
+/// variant.
+const KERNEL_TYPES: &[&str] = &[
+    "Bar2",
+    "Tri3PlaneStress",
+    "Tri3PlaneStrain",
+    "Quad4PlaneStress",
+    "Quad4PlaneStrain",
+    "Quad4PlaneStressReduced",
+    "Quad4PlaneStrainReduced",
+    "Tet4",
+    "Hex8",
+    "Hex8Reduced",
+];
+
+/// What code for meshes would contain: element loops, their table, the kernel types.
+const ELEMENT_MARKERS: &[&str] = &[
+    "mesh_kernels",
+    "BlockKernel",
+    "MESH_KERNELS",
+    "solid::",
+    "Bar2",
+    "Tri3",
+    "Quad4",
+    "Tet4",
+    "Hex8",
+];
 
 /// The chain of `models/chain.mbd` with `N` links, as inline text.
 const CHAIN: &str = "model chain {

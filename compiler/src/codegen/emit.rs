@@ -746,6 +746,34 @@ pub fn file(
         }
     };
 
+    // ---- meshes: each block's element loop, monomorphized for its kernel (kind and
+    // quadrature variant); the kernels' numbers (material, thickness, B-bar flag, hourglass
+    // coefficient) stay data in the layout
+    let (mesh_items, mesh_kernels) = if spec.meshes.is_empty() {
+        (quote!(), quote!())
+    } else {
+        let blocks = spec.meshes.iter().map(|b| {
+            let k = format_ident!("{}", b.kernel());
+            if b.plastic {
+                quote!(BlockKernel::plastic::<#k>())
+            } else {
+                quote!(BlockKernel::elastic::<#k>())
+            }
+        });
+        (
+            quote! {
+                /// The meshes' element loops, block after block: each block's kernel
+                /// (elastic or plastic), monomorphized; its constants are in the layout.
+                static MESH_KERNELS: BlockKernels = BlockKernels::new(&[#(#blocks),*]);
+            },
+            quote! {
+                fn mesh_kernels(&self) -> Option<&dyn core::any::Any> {
+                    Some(&MESH_KERNELS)
+                }
+            },
+        )
+    };
+
     // ---- the `System` methods whose parameters depend on the scene: a parameter the body
     // does not read is named `_name`.
     let applied_body = quote!(#gravity_applied #applied_terms);
@@ -793,6 +821,8 @@ pub fn file(
             #update_locks
 
             #tree_joint
+
+            #mesh_kernels
 
             fn has_velocity_forces(&self) -> bool {
                 self.velocity_forces
@@ -859,6 +889,8 @@ pub fn file(
         #(#consts)*
 
         #(#shape_items)*
+
+        #mesh_items
 
         /// The scene as a `System`: structure in code, numbers in the fields.
         #[derive(Clone, Debug)]
@@ -988,6 +1020,25 @@ const IMPORTS: &[(&str, &[&str])] = &[
     ("mbdc_runtime::nalgebra", &["Vector3"]),
     ("mbdc_runtime::system", &["JointKernel"]),
     ("mbdc_runtime::joints", &["JointGeom"]),
+    (
+        "mbdc_runtime::integrators::mesh_kernels",
+        &["BlockKernel", "BlockKernels"],
+    ),
+    (
+        "mbdc_runtime::solid",
+        &[
+            "Bar2",
+            "Hex8",
+            "Hex8Reduced",
+            "Quad4PlaneStrain",
+            "Quad4PlaneStrainReduced",
+            "Quad4PlaneStress",
+            "Quad4PlaneStressReduced",
+            "Tet4",
+            "Tri3PlaneStrain",
+            "Tri3PlaneStress",
+        ],
+    ),
 ];
 
 fn unrolled_joint(cx: &Ctx<'_>, k: usize, j: &UJoint) -> TokenStream {

@@ -25,7 +25,24 @@
 //!
 //! **Only the effects a scene calls for.** Code, fields and imports exist only for the
 //! kernels and force kinds the plan contains: a pendulum's code has no spring, contact, time
-//! function or lock code (`mbdc build --emit` shows it).
+//! function, lock or element code, and a hex8 mesh's no tet4 or quad4 kernel (`mbdc build
+//! --emit` shows it).
+//!
+//! **Meshes: the element kernels in code, their constants in data.** For a scene with
+//! meshes, the spec lists each element block's kernel (element kind, with the plane mode of
+//! 2-D kinds, and the quadrature variant of hex8 and quad4: full or one point, whose code
+//! paths are separate) and whether its material is plastic
+//! ([`mbdc_runtime::compiled::MeshBlock`]);
+//! the generated module writes the table of the blocks' element loops
+//! (`mbdc_runtime::integrators::mesh_kernels::BlockKernels`), each monomorphized for its
+//! kernel — `BlockKernel::elastic::<Hex8>()` is `elastic_block::<Hex8>` — naming only the
+//! kernels its blocks use, plastic loops only for plastic blocks, and hands it to the
+//! integrators through `System::mesh_kernels`. The material constants, thickness, B-bar
+//! flag and hourglass coefficient stay data (the mesh layout the interpreter builds),
+//! as joints' geometry does. A rigid scene's code has no mesh tokens at all (the method's
+//! default is "none", which the interpreter also uses: then each block's loop is chosen by
+//! a `match` on its kind before the run). The loops and kernels are the interpreter's, so
+//! the two paths agree to the last bit here too.
 //!
 //! **Two layouts** ([`Mode`]). Up to [`UNROLL_MAX_ITEMS`] row groups and force terms
 //! (and [`UNROLL_MAX_BODIES`] bodies), [`Mode::Unrolled`]: one straight-line kernel call per

@@ -7,8 +7,9 @@
 //! The interpreter's plan ([`Interp::joint_entries`], [`Interp::terms`], [`Interp::locks`])
 //! is the single source of truth for what a scene evaluates, in which order. [`Plan::new`]
 //! builds it and splits it into
-//! - a [`Spec`]: which kernels and force terms, with which bodies and rows, and the shapes of
-//!   the time functions ([`FnShape`]) — everything the generated code is written for;
+//! - a [`Spec`]: which kernels and force terms, with which bodies and rows, the shapes of
+//!   the time functions ([`FnShape`]) and the meshes' element kernels ([`MeshBlock`]) —
+//!   everything the generated code is written for;
 //! - [`PlanData`]: every number (joint and force geometry, constants and tables of the time
 //!   functions, lock angles, gravity, the initial state, the layout with names and masses).
 //!
@@ -40,7 +41,7 @@
 
 use serde::Serialize;
 
-use crate::contract::scene::{Fn1, ForceFrame, Scene, UnaryFn};
+use crate::contract::scene::{ElementKind, Fn1, ForceFrame, Scene, UnaryFn};
 use crate::contract::system::{JointKernel, Pose, System, Twist};
 use crate::interp::{Interp, InterpError, Lock, Term};
 use crate::kernels::contact::{BoxPlane, SpherePlane, SphereSphere};
@@ -357,6 +358,31 @@ pub struct Spec {
     pub locks: bool,
     /// Per item structure ([`Mode::Unrolled`] only).
     pub unrolled: Option<Unrolled>,
+    /// The meshes' element blocks in layout order: which element kernel (kind and
+    /// quadrature variant), elastic or plastic, each block runs (its constants are data). Empty without meshes, and then
+    /// left out of the key's JSON, so that rigid scenes keep their keys.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub meshes: Vec<MeshBlock>,
+}
+
+/// The structure of one element block of a mesh: the kernel generated code names for it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+pub struct MeshBlock {
+    /// Element kind (with the plane mode of 2-D kinds).
+    pub kind: ElementKind,
+    /// Whether the block runs the one-point variant of the kind's kernel (reduced hex8 and
+    /// quad4, [`crate::kernels::solid::reduced`]).
+    pub reduced: bool,
+    /// Whether the material is elastoplastic (the block runs the plastic loop).
+    pub plastic: bool,
+}
+
+impl MeshBlock {
+    /// The name of the block's kernel type in `mbdc_runtime::solid` (`Hex8`, `Hex8Reduced`,
+    /// …).
+    pub fn kernel(&self) -> &'static str {
+        crate::kernels::solid::kernel_name(self.kind, self.reduced)
+    }
 }
 
 impl Spec {
@@ -688,6 +714,17 @@ impl Plan {
             terms: tc,
             locks: !locks.is_empty(),
             unrolled,
+            meshes: interp
+                .layout()
+                .meshes
+                .blocks
+                .iter()
+                .map(|b| MeshBlock {
+                    kind: b.kind,
+                    reduced: crate::integrators::mesh_kernels::block_reduced(b),
+                    plastic: b.material.plastic.is_some(),
+                })
+                .collect(),
         };
         Ok(Plan { interp, spec, data })
     }

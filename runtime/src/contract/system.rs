@@ -363,4 +363,14 @@ pub trait System: Sync {
     fn tree_joint(&self, _joint: usize) -> Option<(JointKernel, &JointGeom)> {
         None
     }
+
+    /// The meshes' element loops chosen by generated code: a
+    /// `mbdc_runtime::integrators::mesh_kernels::BlockKernels` (one monomorphized loop per
+    /// block of [`Layout::meshes`], in block order), behind [`std::any::Any`] because this
+    /// contract sits below the integrators that define it. Default: `None`, and the
+    /// integrators choose each block's loop from its kind at run time (the interpreter).
+    /// Generated code overrides it only for scenes with meshes.
+    fn mesh_kernels(&self) -> Option<&dyn std::any::Any> {
+        None
+    }
 }

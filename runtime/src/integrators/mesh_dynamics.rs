@@ -11,7 +11,8 @@
 //! terms (viscous hourglass control) use the lagged `v^{n+½}` (notes D §1.1 [M]).
 //!
 //! **One step** (no allocation): (1) every element, in parallel over type-homogeneous
-//! blocks, evaluates its kernel ([`crate::kernels::solid::respond`]) and (2) its forces are
+//! blocks, evaluates its kernel (each block by the loop of its [`super::mesh_kernels`]
+//! table, chosen before the run and monomorphized per element type) and (2) its forces are
 //! summed at the nodes by the layout's assembly strategy ([`super::mesh_assembly`]: the
 //! node-centric gather, colouring or partitions, notes D §6.3), every node's in one fixed
 //! order: no atomic read-modify-write, and results are bitwise the same for every strategy
@@ -19,8 +20,9 @@
 //!
 //! **Plasticity**: a block whose material is plastic keeps the plastic strain and the
 //! equivalent plastic strain of every integration point (one array per quantity, point
-//! after point, built once) and evaluates its elements with
-//! [`crate::kernels::solid::respond_plastic`], which updates them by return mapping once
+//! after point, built once) and evaluates its elements with the elastoplastic loop
+//! ([`super::mesh_kernels::plastic_block`], the kernels of
+//! [`crate::kernels::solid::respond_plastic`]), which updates them by return mapping once
 //! per step; the choice is made per block, so elastic blocks have no state and run the
 //! elastic loop unchanged.
 //!
@@ -44,16 +46,13 @@
 
 use std::sync::Arc;
 
-use super::mesh_assembly::{Assembler, Runs};
+use super::mesh_assembly::Assembler;
+use super::mesh_kernels::{BlockArgs, BlockEval, BlockKernel, BlockKernels, ElementScalars};
 use super::StepError;
 use crate::analysis::mesh_model::{elastic, element_place, options, plastic};
-use crate::contract::mesh_layout::ElementBlock;
 use crate::contract::mesh_layout::MeshLayout;
 use crate::kernels::fn1;
-use crate::kernels::solid::{
-    self, Elastic, ElementOptions, ElementResponse, Plastic, PlasticPoints, PlasticResponse,
-    MAX_NODES,
-};
+use crate::kernels::solid::{self, PlasticResponse};
 
 /// The energies of the meshes at one time (J).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -157,29 +156,12 @@ impl MeshState {
     }
 }
 
-/// One block's evaluation constants.
-struct BlockEval {
-    opts: ElementOptions,
-    mat: Elastic,
-    /// The plastic constants (`None`: an elastic block).
-    plastic: Option<Plastic>,
-    /// Integration points per element.
-    points: usize,
-}
-
-/// What one element leaves for the reductions.
-#[derive(Clone, Copy, Debug, Default)]
-struct ElementScalars {
-    strain_energy: f64,
-    hourglass_energy: f64,
-    hourglass_power: f64,
-    min_jacobian: f64,
-}
-
 /// The meshes' explicit integrator.
 pub struct MeshDynamics {
     layout: Arc<MeshLayout>,
     evals: Vec<BlockEval>,
+    /// Per block: its element loop, chosen before the run.
+    kernels: Vec<BlockKernel>,
     h: f64,
     t: f64,
     u: Vec<[f64; 3]>,
@@ -212,7 +194,8 @@ pub struct MeshDynamics {
 
 impl MeshDynamics {
     /// Start at time `t0` from `start` (displacements and velocities; an empty state starts
-    /// at rest, undeformed) with step `h`.
+    /// at rest, undeformed) with step `h`, each block's elements evaluated by the loop its
+    /// kind and material call for ([`BlockKernels::interpreted`]).
     ///
     /// # Errors
     /// An element that is inverted at the start.
@@ -222,6 +205,33 @@ impl MeshDynamics {
         t0: f64,
         start: &super::MeshState,
     ) -> Result<MeshDynamics, StepError> {
+        let kernels = BlockKernels::interpreted(&layout);
+        MeshDynamics::with_kernels(layout, &kernels, h, t0, start)
+    }
+
+    /// [`MeshDynamics::new`] with the blocks' element loops given (generated code's table,
+    /// [`crate::contract::system::System::mesh_kernels`]).
+    ///
+    /// # Errors
+    /// A table that does not fit the layout's blocks; an element that is inverted at the
+    /// start.
+    pub fn with_kernels(
+        layout: Arc<MeshLayout>,
+        kernels: &BlockKernels,
+        h: f64,
+        t0: f64,
+        start: &super::MeshState,
+    ) -> Result<MeshDynamics, StepError> {
+        if let Some(why) = kernels.mismatch(&layout) {
+            return Err(StepError::Mesh {
+                mesh: layout
+                    .blocks
+                    .first()
+                    .map_or_else(String::new, |b| b.name.clone()),
+                place: "its element kernels".into(),
+                message: why,
+            });
+        }
         let n = layout.nodes();
         let ne = layout.elements();
         let evals: Vec<BlockEval> = layout
@@ -290,6 +300,7 @@ impl MeshDynamics {
         };
         let mut md = MeshDynamics {
             evals,
+            kernels: kernels.blocks().to_vec(),
             h,
             t: t0,
             u,
@@ -517,55 +528,36 @@ impl MeshDynamics {
         self.assembly.begin(&self.f_ext, &self.f_found);
         let (u, v) = (&self.u, &self.v);
         for (bi, b) in l.blocks.iter().enumerate() {
-            let ev = &self.evals[bi];
-            let npe = b.kind.nodes();
             let e0 = b.first_element;
             let ne = b.elements();
-            let stress = &mut self.stress[e0..e0 + ne];
-            let strain = &mut self.strain[e0..e0 + ne];
-            let scalars = &mut self.scalars[e0..e0 + ne];
-            let one = |e: usize,
-                       fs: &mut [[f64; 3]],
-                       st: &mut [f64; 6],
-                       sn: &mut [f64; 6],
-                       sc: &mut ElementScalars| {
-                let mut x0 = [[0.0; 3]; MAX_NODES];
-                let mut ue = [[0.0; 3]; MAX_NODES];
-                let mut ve = [[0.0; 3]; MAX_NODES];
-                for (a, &g) in b.element_nodes(e).iter().enumerate() {
-                    x0[a] = l.x0[g as usize];
-                    ue[a] = u[g as usize];
-                    ve[a] = v[g as usize];
-                }
-                let mut r = ElementResponse::default();
-                solid::respond(
-                    b.kind,
-                    &ev.opts,
-                    &ev.mat,
-                    &x0[..npe],
-                    &ue[..npe],
-                    &ve[..npe],
-                    &mut r,
-                );
-                fs.copy_from_slice(&r.f[..npe]);
-                *st = r.stress;
-                *sn = r.strain;
-                *sc = ElementScalars {
-                    strain_energy: r.strain_energy,
-                    hourglass_energy: r.hourglass_energy,
-                    hourglass_power: r.hourglass_power,
-                    min_jacobian: r.min_jacobian,
-                };
-            };
-            let cols = (&mut *stress, &mut *strain, &mut *scalars);
-            if let Some(law) = &ev.plastic {
-                // The block's choice: the elastoplastic evaluation with its points' state.
-                let (ps, pout) = (&mut self.plastic[bi], &mut self.plastic_out[bi]);
-                plastic_block(&mut self.assembly, l, bi, ev, law, (u, v), ps, pout, cols);
+            // A plastic block's points' state and per-element plastic outputs.
+            let plastic = if self.evals[bi].plastic.is_some() {
+                let ps = &mut self.plastic[bi];
+                Some((
+                    &mut ps.strain[..],
+                    &mut ps.equivalent[..],
+                    &mut ps.stress[..],
+                    &mut self.plastic_out[bi][..],
+                ))
             } else {
-                self.assembly
-                    .elements(l, bi, cols, |e, fs, (st, sn, sc)| one(e, fs, st, sn, sc));
-            }
+                None
+            };
+            // The block's loop, chosen before the run.
+            (self.kernels[bi].run)(BlockArgs {
+                assembly: &mut self.assembly,
+                layout: l,
+                block: bi,
+                eval: &self.evals[bi],
+                u,
+                v,
+                out: (
+                    &mut self.stress[e0..e0 + ne],
+                    &mut self.strain[e0..e0 + ne],
+                    &mut self.scalars[e0..e0 + ne],
+                ),
+                plastic,
+            });
+            let scalars = &self.scalars[e0..e0 + ne];
             // An inverted element stops the run where it happened.
             if let Some(e) = scalars
                 .iter()
@@ -661,99 +653,4 @@ impl MeshDynamics {
         }
         out.energy = self.energy;
     }
-}
-
-/// One vector per node of an element (first `kind.nodes()` rows used).
-type NodeRows = [[f64; 3]; MAX_NODES];
-
-/// The reference coordinates, displacements and velocities of element `e`'s nodes.
-#[inline]
-fn gather_element(
-    l: &MeshLayout,
-    b: &ElementBlock,
-    e: usize,
-    u: &[[f64; 3]],
-    v: &[[f64; 3]],
-) -> (NodeRows, NodeRows, NodeRows) {
-    let mut x0 = [[0.0; 3]; MAX_NODES];
-    let mut ue = [[0.0; 3]; MAX_NODES];
-    let mut ve = [[0.0; 3]; MAX_NODES];
-    for (a, &g) in b.element_nodes(e).iter().enumerate() {
-        x0[a] = l.x0[g as usize];
-        ue[a] = u[g as usize];
-        ve[a] = v[g as usize];
-    }
-    (x0, ue, ve)
-}
-
-/// The per-element outputs of one block: stress, strain, scalars.
-type BlockOut<'a> = (
-    &'a mut [[f64; 6]],
-    &'a mut [[f64; 6]],
-    &'a mut [ElementScalars],
-);
-
-/// The element evaluation of an elastoplastic block: every element evaluates
-/// [`solid::respond_plastic`] with its points' run of the block's plastic state (updated in
-/// place) and leaves its plastic means and work in `pout`; the assembler runs the elements
-/// and sums their forces as for an elastic block. Each element writes only its own outputs
-/// and state, so results do not depend on the strategy or the number of threads.
-#[allow(clippy::too_many_arguments)] // the block, its constants, state and outputs
-fn plastic_block(
-    assembly: &mut Assembler,
-    l: &MeshLayout,
-    bi: usize,
-    ev: &BlockEval,
-    law: &Plastic,
-    (u, v): (&[[f64; 3]], &[[f64; 3]]),
-    ps: &mut PlasticState,
-    pout: &mut [PlasticResponse],
-    (stress, strain, scalars): BlockOut<'_>,
-) {
-    let b = &l.blocks[bi];
-    let npe = b.kind.nodes();
-    let np = ev.points;
-    let PlasticState {
-        strain: ep_all,
-        equivalent: eq_all,
-        stress: s_all,
-    } = ps;
-    let cols = (
-        stress,
-        strain,
-        scalars,
-        pout,
-        Runs::new(&mut ep_all[..], np),
-        Runs::new(&mut eq_all[..], np),
-        Runs::new(&mut s_all[..], np),
-    );
-    assembly.elements(l, bi, cols, |e, fs, (st, sn, sc, po, pst, peq, pss)| {
-        let (x0, ue, ve) = gather_element(l, b, e, u, v);
-        let mut r = ElementResponse::default();
-        let points = PlasticPoints {
-            strain: pst,
-            equivalent: peq,
-            stress: pss,
-        };
-        *po = solid::respond_plastic(
-            b.kind,
-            &ev.opts,
-            &ev.mat,
-            law,
-            &x0[..npe],
-            &ue[..npe],
-            &ve[..npe],
-            points,
-            &mut r,
-        );
-        fs.copy_from_slice(&r.f[..npe]);
-        *st = r.stress;
-        *sn = r.strain;
-        *sc = ElementScalars {
-            strain_energy: r.strain_energy,
-            hourglass_energy: r.hourglass_energy,
-            hourglass_power: r.hourglass_power,
-            min_jacobian: r.min_jacobian,
-        };
-    });
 }

@@ -21,6 +21,7 @@ pub mod beam_forces;
 pub mod common;
 pub mod mesh_assembly;
 pub mod mesh_dynamics;
+pub mod mesh_kernels;
 pub mod mesh_ties;
 pub mod natural;
 pub mod partitioning;
@@ -197,7 +198,25 @@ pub fn make<'a, S: System + 'a>(
         (Some(_), true) => mesh_ties::initial_mesh_state(sys.layout(), &start.pose, &start.twist),
         _ => start.mesh.clone(),
     };
-    let mesh = mesh_dynamics::MeshDynamics::new(meshes.clone(), h, start.t, &mesh_start)?;
+    // The blocks' element loops: the system's own (generated code), else chosen by kind.
+    let kernels = match sys.mesh_kernels() {
+        Some(k) => k
+            .downcast_ref::<mesh_kernels::BlockKernels>()
+            .ok_or_else(|| {
+                StartError::Invalid(
+                    "the system's mesh kernels are not a `BlockKernels` table (a bug in the code that implements it)".into(),
+                )
+            })?
+            .clone(),
+        None => mesh_kernels::BlockKernels::interpreted(&meshes),
+    };
+    let mesh = mesh_dynamics::MeshDynamics::with_kernels(
+        meshes.clone(),
+        &kernels,
+        h,
+        start.t,
+        &mesh_start,
+    )?;
     if let Some(c) = &mut coupler {
         mesh_ties::wrenches(&meshes, &start.pose, mesh.reactions(), &mut c.wrench);
         c.wrench_prev.copy_from_slice(&c.wrench);

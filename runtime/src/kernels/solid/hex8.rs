@@ -19,7 +19,7 @@ use super::continuum::{
     PointLaw, HEX8_NODES, V3,
 };
 use super::hourglass::{apply, bb, gammas, HEX8_H};
-use super::{Elastic, ElementOptions, ElementResponse, Integration};
+use super::{Elastic, ElementOptions, ElementResponse, Hourglass, Integration};
 
 /// Element-mean gradients `(1/V) ∫ ∇N_a dV` and the volume `V` (exact by 2×2×2 Gauss).
 pub(super) fn mean_gradients(x0: &[V3; 8]) -> ([V3; 8], f64) {
@@ -81,42 +81,69 @@ pub(super) fn respond_with<L: PointLaw>(
     v: &[[f64; 3]; 8],
     out: &mut ElementResponse,
 ) -> f64 {
+    match opts.integration {
+        Integration::Full { bbar } => full_with(opts, law, bbar, x0, u, out),
+        Integration::Reduced(hg) => reduced_with(opts, mat, law, hg, x0, u, v, out),
+    }
+}
+
+/// [`respond_with`] with full 2×2×2 quadrature (B-bar when `bbar`), whatever
+/// `opts.integration` says.
+pub(super) fn full_with<L: PointLaw>(
+    opts: &ElementOptions,
+    law: &mut L,
+    bbar: bool,
+    x0: &[[f64; 3]; 8],
+    u: &[[f64; 3]; 8],
+    out: &mut ElementResponse,
+) -> f64 {
     let xc = current(x0, u);
     let mut f = [[0.0; 3]; 8];
-    match opts.integration {
-        Integration::Full { bbar } => {
-            let mut g = [[[0.0; 3]; 8]; 8];
-            let mut w = [0.0; 8];
-            let mut min_j = f64::INFINITY;
-            for q in 0..8 {
-                let dn = hex8_dn(hex8_gauss(q));
-                let (gq, det) = gradients(x0, &dn, false);
-                g[q] = gq;
-                w[q] = det;
-                min_j = min_j.min(det3(&jacobian(&xc, &dn, false)));
-            }
-            let sums = integrate(opts.kinematics, law, &g, &w, u, bbar, &mut f);
-            finish(&f, &sums, out);
-            out.hourglass_energy = 0.0;
-            out.hourglass_power = 0.0;
-            out.min_jacobian = min_j;
-            sums.volume
-        }
-        Integration::Reduced(hg) => {
-            let (b, vol) = mean_gradients(x0);
-            let sums = integrate(opts.kinematics, law, &[b], &[vol], u, false, &mut f);
-            let gam = gammas(&HEX8_H, x0, &b);
-            let m = mat.lambda + 2.0 * mat.mu;
-            let c_s = m * vol * bb(&b) / 3.0;
-            let c_v = (m * mat.rho).sqrt() * vol.powf(2.0 / 3.0) / 4.0;
-            let (e, p) = apply(hg, &gam, c_s, c_v, u, v, &mut f);
-            finish(&f, &sums, out);
-            out.hourglass_energy = e;
-            out.hourglass_power = p;
-            out.min_jacobian = det3(&jacobian(&xc, &hex8_dn([0.0; 3]), false));
-            sums.volume
-        }
+    let mut g = [[[0.0; 3]; 8]; 8];
+    let mut w = [0.0; 8];
+    let mut min_j = f64::INFINITY;
+    for q in 0..8 {
+        let dn = hex8_dn(hex8_gauss(q));
+        let (gq, det) = gradients(x0, &dn, false);
+        g[q] = gq;
+        w[q] = det;
+        min_j = min_j.min(det3(&jacobian(&xc, &dn, false)));
     }
+    let sums = integrate(opts.kinematics, law, &g, &w, u, bbar, &mut f);
+    finish(&f, &sums, out);
+    out.hourglass_energy = 0.0;
+    out.hourglass_power = 0.0;
+    out.min_jacobian = min_j;
+    sums.volume
+}
+
+/// [`respond_with`] with one point and hourglass control `hg`, whatever
+/// `opts.integration` says.
+#[allow(clippy::too_many_arguments)] // respond's arguments, the law and the control
+pub(super) fn reduced_with<L: PointLaw>(
+    opts: &ElementOptions,
+    mat: &Elastic,
+    law: &mut L,
+    hg: Hourglass,
+    x0: &[[f64; 3]; 8],
+    u: &[[f64; 3]; 8],
+    v: &[[f64; 3]; 8],
+    out: &mut ElementResponse,
+) -> f64 {
+    let xc = current(x0, u);
+    let mut f = [[0.0; 3]; 8];
+    let (b, vol) = mean_gradients(x0);
+    let sums = integrate(opts.kinematics, law, &[b], &[vol], u, false, &mut f);
+    let gam = gammas(&HEX8_H, x0, &b);
+    let m = mat.lambda + 2.0 * mat.mu;
+    let c_s = m * vol * bb(&b) / 3.0;
+    let c_v = (m * mat.rho).sqrt() * vol.powf(2.0 / 3.0) / 4.0;
+    let (e, p) = apply(hg, &gam, c_s, c_v, u, v, &mut f);
+    finish(&f, &sums, out);
+    out.hourglass_energy = e;
+    out.hourglass_power = p;
+    out.min_jacobian = det3(&jacobian(&xc, &hex8_dn([0.0; 3]), false));
+    sums.volume
 }
 
 /// Row-sum lumped masses `ρ ∫ N_a dV` (exact by 2×2×2 Gauss; equal eighths on a

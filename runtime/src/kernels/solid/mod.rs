@@ -26,8 +26,9 @@
 //! (isoparametric gradients, the quadrature loop generic over the point law, B-bar),
 //! [`plasticity`] (the return mappings and the elastoplastic point law), `hourglass` (Flanagan–Belytschko,
 //! its coefficients documented there), the element types [`bar2`], [`tri3`], [`quad4`],
-//! [`tet4`], [`hex8`] (public, with fixed-size-array entry points for monomorphised loops),
-//! `frequency` ([`max_frequency`]), `shape` ([`shape_check`]) and `tests`.
+//! [`tet4`], [`hex8`] (public, with fixed-size-array entry points), `element_kernel` (one
+//! zero-sized type per kind behind the [`ElementKernel`] trait, for loops monomorphized per
+//! type; [`respond`] and [`respond_plastic`] dispatch to them), `frequency` ([`max_frequency`]), `shape` ([`shape_check`]) and `tests`.
 //!
 //! Conventions: forces are internal (`M a = f_ext − f`); stress and strain are volume means
 //! in Voigt order `xx yy zz yz xz xy` with tensor shear strains; 2-D kinds take their plane
@@ -38,10 +39,17 @@
 //! quad4/hex8 with ξ ∈ [−1, 1]: `A/4`, `V/8` on parallelograms).
 
 use crate::contract::scene::ElementKind;
+pub(crate) use element_kernel::with_kernel;
+pub use element_kernel::{
+    kernel_name, reduced, Bar2, ElementKernel, Hex8, Hex8Reduced, Quad4PlaneStrain,
+    Quad4PlaneStrainReduced, Quad4PlaneStress, Quad4PlaneStressReduced, Tet4, Tri3PlaneStrain,
+    Tri3PlaneStress,
+};
 pub use plasticity::{Plastic, PlasticPoints, PlasticResponse};
 
 pub mod bar2;
 mod continuum;
+mod element_kernel;
 mod frequency;
 pub mod hex8;
 mod hourglass;
@@ -177,21 +185,15 @@ fn nodes<const N: usize>(x: &[[f64; 3]]) -> &[[f64; 3]; N] {
         .expect("solid element: fewer node rows than kind.nodes()")
 }
 
-/// The plane mode of a 2-D kind (authoritative over [`ElementOptions::plane`]).
-fn plane_of(kind: ElementKind) -> Plane {
-    match kind {
-        ElementKind::Tri3PlaneStrain | ElementKind::Quad4PlaneStrain => Plane::Strain,
-        _ => Plane::Stress,
-    }
-}
-
 /// Internal forces, stress, strain and energies of one element.
 ///
-/// `x0`, `u`, `v` hold at least `kind.nodes()` rows. Dispatches to the per-type kernels
+/// `x0`, `u`, `v` hold at least `kind.nodes()` rows. Dispatches to the [`ElementKernel`] of
+/// the kind and quadrature ([`Bar2`], [`Tri3PlaneStress`], …, [`Hex8`], [`Hex8Reduced`]),
+/// which calls the per-type kernel
 /// ([`bar2::respond`], [`tri3::respond`], [`quad4::respond`], [`tet4::respond`],
-/// [`hex8::respond`]), which take fixed-size arrays and may be called directly from
-/// monomorphised loops. No allocation. For 2-D kinds the plane mode comes from the kind and
-/// `opts.plane` is ignored.
+/// [`hex8::respond`]); loops over many elements of one kind call the [`ElementKernel`]
+/// directly instead (monomorphized, no `match` per element). No allocation. For 2-D kinds
+/// the plane mode comes from the kind and `opts.plane` is ignored.
 pub fn respond(
     kind: ElementKind,
     opts: &ElementOptions,
@@ -201,29 +203,9 @@ pub fn respond(
     v: &[[f64; 3]],
     out: &mut ElementResponse,
 ) {
-    match kind {
-        ElementKind::Bar2 => bar2::respond(opts, mat, nodes(x0), nodes(u), nodes(v), out),
-        ElementKind::Tri3PlaneStress | ElementKind::Tri3PlaneStrain => tri3::respond(
-            opts,
-            mat,
-            plane_of(kind),
-            nodes(x0),
-            nodes(u),
-            nodes(v),
-            out,
-        ),
-        ElementKind::Quad4PlaneStress | ElementKind::Quad4PlaneStrain => quad4::respond(
-            opts,
-            mat,
-            plane_of(kind),
-            nodes(x0),
-            nodes(u),
-            nodes(v),
-            out,
-        ),
-        ElementKind::Tet4 => tet4::respond(opts, mat, nodes(x0), nodes(u), nodes(v), out),
-        ElementKind::Hex8 => hex8::respond(opts, mat, nodes(x0), nodes(u), nodes(v), out),
-    }
+    with_kernel!(kind, reduced(kind, &opts.integration), K => {
+        K::respond(opts, mat, x0, u, v, out)
+    })
 }
 
 /// Number of integration points of an element of `kind` evaluated with `opts`: the length
@@ -267,50 +249,9 @@ pub fn respond_plastic(
     points: PlasticPoints<'_>,
     out: &mut ElementResponse,
 ) -> PlasticResponse {
-    use plasticity::PlasticLaw;
-    let plane = plane_of(kind);
-    let law = |lambda: f64, plane_stress: bool, points| {
-        PlasticLaw::new(lambda, mat.mu, plane_stress, *plastic, points)
-    };
-    match kind {
-        ElementKind::Bar2 => {
-            bar2::respond_plastic(opts, mat, plastic, nodes(x0), nodes(u), points, out)
-        }
-        ElementKind::Tet4 | ElementKind::Hex8 => {
-            let mut l = law(mat.lambda, false, points);
-            let volume = if kind == ElementKind::Tet4 {
-                tet4::respond_with(opts, &mut l, nodes(x0), nodes(u), nodes(v), out)
-            } else {
-                hex8::respond_with(opts, mat, &mut l, nodes(x0), nodes(u), nodes(v), out)
-            };
-            l.response(volume)
-        }
-        _ => {
-            let stress = plane == Plane::Stress;
-            let lambda = if stress {
-                mat.plane_stress().lambda
-            } else {
-                mat.lambda
-            };
-            let mut l = law(lambda, stress, points);
-            let volume = if matches!(
-                kind,
-                ElementKind::Tri3PlaneStress | ElementKind::Tri3PlaneStrain
-            ) {
-                tri3::respond_with(opts, mat, plane, &mut l, nodes(x0), nodes(u), nodes(v), out)
-            } else {
-                quad4::respond_with(opts, mat, plane, &mut l, nodes(x0), nodes(u), nodes(v), out)
-            };
-            let r = l.response(volume);
-            if stress {
-                // ε_zz = εᵉ_zz + εᵖ_zz, εᵉ_zz = −λ/(λ+2μ)(εᵉ_xx + εᵉ_yy): the elastic
-                // formula on the total strain (plane_outputs) misses −(1 − λ/(λ+2μ))(εᵖ_xx + εᵖ_yy).
-                let c = mat.lambda / (mat.lambda + 2.0 * mat.mu);
-                out.strain[2] -= (1.0 - c) * (r.strain[0] + r.strain[1]);
-            }
-            r
-        }
-    }
+    with_kernel!(kind, reduced(kind, &opts.integration), K => {
+        K::respond_plastic(opts, mat, plastic, x0, u, v, points, out)
+    })
 }
 
 /// Each node's share of the element's mass (kg), first `kind.nodes()` used.
