@@ -7,9 +7,10 @@
 //! numbers per frame times the characters a number takes (plus the tags of a VTK file). A
 //! written `f64` is ryu's shortest round-trip form: up to 17 significant digits, a sign, a point and an exponent, 18–24
 //! characters with its separator for a value that is not round; [`BYTES_PER_NUMBER`] takes
-//! 21. Round values (zeros, integers) are shorter, so the estimate is an upper-side figure;
-//! `tests/tests/output_estimate.rs` holds every file's estimate between 0.9× and 2× what
-//! real runs of bodies, joints, beams and meshes write.
+//! 21. Round values (zeros, integers) are shorter, so the estimate is an upper figure: real
+//! runs of bodies, joints, beams and meshes write 0.56–1.05 of it per file
+//! (`tests/tests/output_estimate.rs`), a 10⁶-element mesh barely moving about 0.3 (its
+//! numbers are mostly `0.0`).
 
 use super::csv::{BEAM_COLUMNS, BODY_COLUMNS, ENERGY_COLUMNS};
 use super::vtu::MESH_ENERGY_COLUMNS;
@@ -164,13 +165,102 @@ pub fn warning(layout: &Layout, spec: &OutputSpec, steps: u64, every: u32) -> Op
         .map(|(f, b)| format!("{f} {}", human_bytes(*b)))
         .collect();
     let better = every_for(layout, spec, steps, every, OUTPUT_SUGGEST_BYTES);
-    let after = estimate(layout, spec, steps, better).bytes();
+    let after = estimate(layout, spec, steps, better);
+    let help = if after.bytes() <= OUTPUT_SUGGEST_BYTES {
+        format!(
+            "write a frame every {better} steps — `output {{ every {better} }}` in the model's `simulate` block, or `--every {better}` — for up to about {}",
+            human_bytes(after.bytes())
+        )
+    } else {
+        // even the sparsest output is large: say what one frame costs
+        format!(
+            "one frame writes up to about {}: even the fewest frames ({} with `--every {better}`) write up to about {}",
+            human_bytes(e.bytes() / e.frames.max(1)),
+            after.frames,
+            human_bytes(after.bytes())
+        )
+    };
     Some(format!(
-        "this run will write about {} ({} frames, one every {} step(s): {})\n  help: write a frame every {better} steps — `output {{ every {better} }}` in the model's `simulate` block, or `--every {better}` — for about {}",
+        "this run will write up to about {} ({} frames, one every {} step(s): {})\n  help: {help}",
         human_bytes(e.bytes()),
         e.frames,
         every.max(1),
         list.join(", "),
-        human_bytes(after),
     ))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::contract::mesh_layout::{ElementBlock, MeshLayout};
+    use crate::contract::scene::{ElementKind, Material, MeshFormulation};
+
+    /// A layout of one hex8 block of `elements` elements over `elements` nodes (the
+    /// estimate reads only the counts).
+    fn hex_layout(elements: usize) -> Layout {
+        let mut m = MeshLayout {
+            x0: vec![[0.0; 3]; elements],
+            ..MeshLayout::default()
+        };
+        m.blocks.push(ElementBlock {
+            name: "m".into(),
+            kind: ElementKind::Hex8,
+            material: Material {
+                e: 1.0,
+                nu: 0.3,
+                rho: 1.0,
+                plastic: None,
+            },
+            thickness: 1.0,
+            formulation: MeshFormulation::default(),
+            first_node: 0,
+            nodes: elements,
+            conn: vec![0; 8 * elements],
+            first_slot: 0,
+            first_element: 0,
+        });
+        Layout {
+            body_names: vec![],
+            mass: vec![],
+            joints: vec![],
+            rows: 0,
+            row_joint: vec![],
+            row_kind: vec![],
+            beams: Default::default(),
+            meshes: std::sync::Arc::new(m),
+        }
+    }
+
+    /// Frames: the first, every `every`-th step, the last.
+    #[test]
+    fn frames_count_the_first_and_the_last() {
+        assert_eq!(frames(10, 1), 11);
+        assert_eq!(frames(10, 5), 3);
+        assert_eq!(frames(10, 3), 5);
+        assert_eq!(frames(10, 100), 2);
+        assert_eq!(frames(0, 7), 1);
+    }
+
+    /// 10⁴ hex8 over 10⁴ steps, every step: 10⁴ + 1 frames of 5.39 MB (9 numbers per node,
+    /// 13 numbers and 11 indices per element, the tags) → 53.9 GB; the warning suggests the
+    /// round interval that brings it under 100 MB (every 1000: 11 frames, 59 MB). 10⁶ hex8
+    /// over 10 steps cannot get under it (539 MB a frame) and says what one frame costs.
+    #[test]
+    fn the_warning_suggests_a_round_interval_or_says_what_a_frame_costs() {
+        let spec = OutputSpec::default();
+        let small = hex_layout(10_000);
+        let per_frame = 900 + 10_000 * 9 * 21 + 10_000 * (11 * 7 + 13 * 21);
+        let e = estimate(&small, &spec, 10_000, 1);
+        let csv = e.bytes() - e.files.iter().find(|f| f.0 == "mesh/*.vtu").unwrap().1;
+        assert_eq!(e.bytes() - csv, 10_001 * per_frame);
+        let w = warning(&small, &spec, 10_000, 1).expect("above 1 GB");
+        assert!(w.contains("every 1000 steps"), "{w}");
+        assert!(w.contains("53.9 GB") && w.contains("59.3 MB"), "{w}");
+        assert!(w.contains("(10001 frames"), "{w}");
+        assert!(warning(&small, &spec, 10, 1).is_none());
+        let big = hex_layout(1_000_000);
+        let w = warning(&big, &spec, 10, 1).expect("above 1 GB");
+        assert!(w.contains("one frame writes up to about 539.0 MB"), "{w}");
+        assert!(w.contains("(2 with `--every 10`)"), "{w}");
+    }
 }
