@@ -178,7 +178,7 @@ fn plot_redraws_and_draws_quantities_by_name() {
     assert!(o.status.success());
     let l = String::from_utf8_lossy(&o.stdout);
     assert!(
-        l.contains("energy.csv: kinetic potential total drift"),
+        l.contains("energy.csv: kinetic potential total work drift"),
         "{l}"
     );
 

@@ -216,7 +216,7 @@ fn every_mesh_model_runs_and_writes_its_series() {
         assert_eq!(pvd.matches("<DataSet").count() as u64, frames, "{model}");
         let energy = std::fs::read_to_string(dir.join("mesh_energy.csv")).expect("csv");
         assert!(energy.starts_with(
-            "t,kinetic,strain,hourglass,foundation,external_work,dissipated,plastic,tie_work,balance\n"
+            "t,kinetic,strain,hourglass,foundation,external_work,dissipated,plastic,tie_work,half_step,balance\n"
         ));
         assert_eq!(energy.lines().count() as u64, frames + 1, "{model}");
         assert!(dir.join("mesh_energy.svg").exists(), "{model}: {stdout}");

@@ -68,6 +68,8 @@ pub struct Rec {
     pub kinetic: f64,
     /// Potential energy.
     pub potential: f64,
+    /// Work of non-conservative forces and drivers since the start (J).
+    pub work: f64,
     /// Linear momentum (world).
     pub momentum: [f64; 3],
     /// Angular momentum (world, about the origin).
@@ -121,7 +123,8 @@ impl Trajectory {
     }
 }
 
-struct Recorder(Vec<Rec>);
+/// An observer that keeps every frame.
+pub struct Recorder(pub Vec<Rec>);
 
 impl Observer for Recorder {
     fn frame(&mut self, f: &Frame<'_>) {
@@ -132,6 +135,7 @@ impl Observer for Recorder {
             lambda: f.state.lambda.clone(),
             kinetic: f.kinetic,
             potential: f.potential,
+            work: f.work,
             momentum: f.momentum,
             angular_momentum: f.angular_momentum,
             violation: f.violation.to_vec(),

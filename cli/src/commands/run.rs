@@ -338,6 +338,37 @@ pub fn simulate<S: System>(sys: &S, scene: &Scene, args: &Args) -> ExitCode {
     code
 }
 
+/// The summary's energy-balance line: the terms where the run ended, the error and the
+/// largest error over every step, relative to the energy in play.
+fn energy_balance_line(b: &mbdc_runtime::output::EnergyBalance, max_drift: Option<f64>) -> String {
+    let mut s = format!(
+        "  energy balance: kinetic {:.4e} J + potential {:.4e} J",
+        b.kinetic, b.potential
+    );
+    if b.work_forces != 0.0 || b.work_drivers != 0.0 {
+        s.push_str(&format!(
+            " − work in {:.4e} J (forces {:.4e} J, drivers {:.4e} J)",
+            b.work_forces + b.work_drivers,
+            b.work_forces,
+            b.work_drivers
+        ));
+    }
+    if b.impulses != 0.0 {
+        s.push_str(&format!(" − impulses {:.4e} J", b.impulses));
+    }
+    s.push_str(&format!(
+        " − start {:.4e} J = {:.3e} J, {:.3e} of the {:.3e} J in play",
+        b.start,
+        b.error(),
+        b.error() / b.in_play.max(1e-300),
+        b.in_play
+    ));
+    if let Some(d) = max_drift {
+        s.push_str(&format!(" (largest over the run {d:.3e})"));
+    }
+    s
+}
+
 /// The end-of-run summary on the terminal.
 pub fn print_summary(s: &Summary, dir: &std::path::Path) {
     let status = s.status().word();
@@ -364,8 +395,10 @@ pub fn print_summary(s: &Summary, dir: &std::path::Path) {
             .unwrap_or_default();
         println!("  max constraint violation {v:.3e}{at}");
     }
-    if let Some(d) = s.max_energy_drift {
-        println!("  max relative energy drift {d:.3e}");
+    if let Some(b) = &s.energy_balance {
+        println!("{}", energy_balance_line(b, s.max_energy_drift));
+    } else if let Some(d) = s.max_energy_drift {
+        println!("  energy balance error, largest: {d:.3e} of the energy in play");
     }
     for (k, v) in &s.extra {
         if k == "warnings" {

@@ -56,16 +56,15 @@ pub struct Settings {
     pub halve_step: bool,
 }
 
-/// Whether a scene has energy sources (applied forces, drivers, prescribed velocities,
-/// contact, time dependence, the meshes' time-dependent loads and displacements): then the
-/// watchdog does not check energy growth. The meshes' balance does count the work of their
-/// loads, but the synchronized central difference books it half a step late (a load ramped
-/// from zero gives kinetic energy at the first step before its work shows in the
-/// displacement), so the balance's error relative to the energy in play is O(1) over the
-/// first steps of a loading.
+/// Whether a scene has forces or rows that do work the potential energy does not hold
+/// (applied forces, dampers, drivers, prescribed velocities, contact, time dependence): then
+/// the watchdog's energy balance books their work ([`crate::driver::work`]), at the cost of
+/// one force and two potential-energy evaluations per step. Without them (gravity, springs,
+/// beams, meshes, whose own loads' work the meshes book) the balance is `K + V = E₀` and
+/// costs nothing.
 pub fn energy_sources(scene: &Scene) -> bool {
     let e = crate::analysis::effects::Effects::of(scene);
-    e.applied_forces || e.drivers || e.nonholonomic || e.contact || e.time_dependence
+    e.applied_forces || e.dampers || e.drivers || e.nonholonomic || e.contact || e.time_dependence
 }
 
 /// The run configuration of `scene` on `sys` with the user's settings: the same for the

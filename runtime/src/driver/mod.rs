@@ -6,6 +6,7 @@
 //! - [`assemble`]: assembly of a consistent initial state (Newton on the position and
 //!   velocity constraints).
 //! - [`energy`]: kinetic energy and momenta of a state.
+//! - [`work`]: the work of non-conservative forces and drivers, for the energy balance.
 //!
 //! Imports every floor below (contract, kernels, linalg, analysis, integrators); knows
 //! neither the interpreter nor generated code: it drives any `System`.
@@ -14,3 +15,4 @@ pub mod assemble;
 pub mod energy;
 pub mod output;
 pub mod run_loop;
+pub mod work;

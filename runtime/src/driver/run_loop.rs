@@ -40,6 +40,7 @@
 use crate::contract::scene::MethodSpec;
 use crate::contract::system::{ConstraintEval, Layout, Need, RowKind, System};
 use crate::driver::energy;
+use crate::driver::work::{self, WorkWatch};
 use crate::integrators::{self, State, StepError};
 
 /// How many times `--on-failure halve-step` halves the step before giving up: the single
@@ -62,9 +63,14 @@ pub struct Watchdog {
     pub max_violation: f64,
     /// Largest angular violation tolerated (rad, for rows without length units).
     pub max_angular_violation: f64,
-    /// Largest relative energy growth tolerated in a scene without energy sources.
+    /// Largest error of the energy balance `K + V − W − E₀` tolerated, relative to the
+    /// energy in play, in either direction (a loss is checked where every dissipation is
+    /// booked: not with locks, damped beams or dynamic relaxation).
     pub max_energy_growth: f64,
-    /// Whether the scene has energy sources (then energy growth is not checked).
+    /// Whether the scene has non-conservative forces or time-dependent rows (applied forces,
+    /// dampers, contact, drivers, prescribed velocities): then the balance books their work
+    /// ([`crate::driver::work`]), which costs one force evaluation and two potential-energy
+    /// evaluations per step; without them `W = 0` and costs nothing.
     pub energy_sources: bool,
 }
 
@@ -108,6 +114,10 @@ pub struct Frame<'a> {
     pub kinetic: f64,
     /// Potential energy, J: gravity and springs, plus the strain energy of the beams.
     pub potential: f64,
+    /// Work done on the system since t = 0 by what the potential energy does not hold
+    /// (point forces and torques, dampers, contact damping, drivers; [`crate::driver::work`]),
+    /// J: `kinetic + potential − work` stays at its start value up to the method's error.
+    pub work: f64,
     /// Linear momentum of the bodies and the meshes' nodes, world.
     pub momentum: [f64; 3],
     /// Angular momentum of the bodies and the meshes' nodes about the world origin, world.
@@ -141,7 +151,7 @@ pub trait Observer {
     }
 }
 
-pub use crate::driver::output::{Failure, Interruption};
+pub use crate::driver::output::{EnergyBalance, Failure, Interruption};
 
 impl std::fmt::Display for Failure {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
@@ -182,8 +192,11 @@ pub struct RunReport {
     /// after any step: (ratio, joint, the joint's length in m). Above
     /// [`JOINT_LENGTH_WARNING`] the run says so through [`Observer::notice`].
     pub max_relative_violation: (f64, String, f64),
-    /// Largest |E − E₀| / max(|E₀|, energy in play) seen after any step.
+    /// Largest error of the energy balance `|K + V − W − E₀|` over the energy in play
+    /// ([`EnergyBalance::in_play`]), seen after any step.
     pub max_energy_drift: f64,
+    /// The energy balance where the run ended.
+    pub energy: EnergyBalance,
     /// Method statistics (name, value).
     pub stats: Vec<(String, f64)>,
     /// Warnings about the result, given at the end of the run (also to
@@ -272,12 +285,38 @@ struct EnergyWatch {
     /// Kinetic and potential energy of the last state seen.
     kinetic: f64,
     potential: f64,
-    /// Largest `|E − E₀|` seen.
+    /// Largest `|E − W − E₀|` seen.
     max_change: f64,
+    /// The work booked since the start.
+    work: WorkWatch,
+    /// Whether an energy loss is an error (every dissipation is booked).
+    loss_checked: bool,
+    /// The energy below which the balance is not judged (J): the kinetic energy of moving
+    /// every mass by 10⁻⁹ of the smallest joint length in one step, what a constraint
+    /// tolerance's correction can cost. A run that starts at rest under a load ramped from
+    /// zero has energies of round-off size for its first steps.
+    floor: f64,
+    /// The energy change of steps with an impulse: a lock engaging (a perfectly plastic
+    /// impact whose loss no force accounts for) or a driver's rate jumping (see
+    /// [`EnergyWatch::observe`]), J.
+    impacts: f64,
+    /// The balance's error at the last state seen, J.
+    error: f64,
+    /// `impacts` and `error` at the last output frame (a retry restarts there).
+    saved: (f64, f64),
+    /// Steps left in which the balance's change is booked as an impulse's after a driver's
+    /// rate jumped ([`WorkWatch::step`]).
+    kink_grace: u8,
 }
 
 impl EnergyWatch {
-    fn new<S: System>(sys: &S, st: &State) -> EnergyWatch {
+    fn new<S: System>(
+        sys: &S,
+        st: &State,
+        work: WorkWatch,
+        loss_checked: bool,
+        floor: f64,
+    ) -> EnergyWatch {
         let kinetic = energy::kinetic_energy(sys.layout(), &st.twist) + st.mesh_kinetic();
         let potential = sys.potential_energy(st.t, &st.pose) + st.strain_energy();
         EnergyWatch {
@@ -288,8 +327,28 @@ impl EnergyWatch {
             kinetic,
             potential,
             max_change: 0.0,
+            work,
+            loss_checked,
+            floor,
+            impacts: 0.0,
+            error: 0.0,
+            saved: (0.0, 0.0),
+            kink_grace: 0,
         }
         .with_meshes(st)
+    }
+
+    /// Start again from `st`, whose meshes' state is the integrator's at t = 0 (nothing has
+    /// moved yet: only the meshes' energies change).
+    fn restart_meshes<S: System>(&mut self, sys: &S, st: &State) {
+        let kinetic = energy::kinetic_energy(sys.layout(), &st.twist) + st.mesh_kinetic();
+        let potential = sys.potential_energy(st.t, &st.pose) + st.strain_energy();
+        self.e0 = kinetic + potential;
+        self.kinetic = kinetic;
+        self.potential = potential;
+        self.pe_lo = potential;
+        self.pe_hi = potential;
+        self.in_play = self.in_play.max(kinetic).max(mesh_in_play(st));
     }
 
     /// Count the meshes' energy in play ([`mesh_in_play`]).
@@ -298,33 +357,98 @@ impl EnergyWatch {
         self
     }
 
-    /// Take the energies of `st` into the ranges.
-    fn observe<S: System>(&mut self, sys: &S, st: &State) {
+    /// Take the energies of `st` into the ranges and the balance. With `impact` (a lock
+    /// engaged within the last few steps), and for a few steps after a driver's rate jumped,
+    /// the step's change of the balance is booked as an impulse's energy instead of as an
+    /// error: a lock engages with the overshoot of its step, which the method removes over
+    /// the next steps, and neither the impact's loss nor a kinked driver's impulse is the
+    /// work of a force the states show.
+    fn observe<S: System>(&mut self, sys: &S, st: &State, impact: bool) {
+        if self.work.step(sys, st) {
+            self.kink_grace = ENGAGE_GRACE;
+        }
+        let impact = impact || self.kink_grace > 0;
+        self.kink_grace = self.kink_grace.saturating_sub(1);
         self.kinetic = energy::kinetic_energy(sys.layout(), &st.twist) + st.mesh_kinetic();
         self.potential = sys.potential_energy(st.t, &st.pose) + st.strain_energy();
         self.pe_lo = self.pe_lo.min(self.potential);
         self.pe_hi = self.pe_hi.max(self.potential);
         self.in_play = self.in_play.max(self.kinetic);
         self.in_play = self.in_play.max(mesh_in_play(st));
-        let change = (self.kinetic + self.potential - self.e0).abs();
+        let error = self.kinetic + self.potential - self.work.total() - self.impacts - self.e0;
+        if impact && error.is_finite() {
+            self.impacts += error - self.error;
+        } else {
+            self.error = error;
+        }
+        let change = self.error.abs();
         if change.is_nan() || change > self.max_change {
             self.max_change = change;
         }
     }
 
-    /// The energy in play: |E₀|, or the largest kinetic energy plus the potential-energy
-    /// range seen, whichever is larger.
+    /// Remember the balance at an output frame (a retry restarts there).
+    fn save(&mut self) {
+        self.work.save();
+        self.saved = (self.impacts, self.error);
+    }
+
+    /// Go back to the last output frame (a retry).
+    fn restore(&mut self) {
+        self.work.restore();
+        (self.impacts, self.error) = self.saved;
+        self.kink_grace = 0;
+    }
+
+    /// The work booked so far, with the locks' impact energy, J.
+    fn work_in(&self) -> f64 {
+        self.work.total() + self.impacts
+    }
+
+    /// The energy in play: the largest of |E₀|, the largest kinetic energy plus the
+    /// potential-energy range seen, the largest work of forces or of drivers seen, eight
+    /// times the largest half-kick term ([`crate::driver::work::Booked::allowance`]: a force
+    /// switched on is half a kick ahead of its work for a step), and the floor.
     fn scale(&self) -> f64 {
+        let w = self.work.booked();
         self.e0
             .abs()
             .max(self.in_play + (self.pe_hi - self.pe_lo))
+            .max(w.max_forces + w.max_drivers)
+            .max(8.0 * w.allowance)
+            .max(self.floor)
             .max(1e-300)
     }
 
-    /// (E − E₀) / energy in play, signed.
-    fn relative_change(&self) -> f64 {
-        (self.kinetic + self.potential - self.e0) / self.scale()
+    /// The balance at the last state seen.
+    fn balance(&self) -> EnergyBalance {
+        let w = self.work.booked();
+        EnergyBalance {
+            kinetic: self.kinetic,
+            potential: self.potential,
+            work_forces: w.forces,
+            work_drivers: w.drivers,
+            impulses: self.impacts,
+            start: self.e0,
+            in_play: self.scale(),
+            loss_checked: self.loss_checked,
+        }
     }
+
+    /// (E − W − E₀) / energy in play, signed: positive when energy appeared from nowhere.
+    fn relative_change(&self) -> f64 {
+        self.error / self.scale()
+    }
+}
+
+/// The energy floor of [`EnergyWatch`]: `½ M (10⁻⁹ ℓ / h)²` with `M` the mass of the bodies
+/// and the meshes' nodes and `ℓ` the smallest joint length ([`joint_lengths`]) or the
+/// scene's length scale.
+fn energy_floor(layout: &Layout, lengths: &[f64], scale: f64, h: f64) -> f64 {
+    let m: f64 =
+        layout.mass.iter().map(|m| m.m).sum::<f64>() + layout.meshes.mass.iter().sum::<f64>();
+    let l = lengths.iter().copied().fold(scale, f64::min);
+    0.5 * m * (1e-9 * l / h).powi(2)
 }
 
 /// The scene length scale used for default thresholds: the largest distance of a body from
@@ -357,6 +481,7 @@ pub fn run<S: System>(sys: &S, cfg: &RunConfig, obs: &mut dyn Observer) -> RunRe
         max_violation: (0.0, String::new()),
         max_relative_violation: (0.0, String::new(), 0.0),
         max_energy_drift: 0.0,
+        energy: EnergyBalance::default(),
         stats: Vec::new(),
         warnings: Vec::new(),
     };
@@ -372,23 +497,51 @@ pub fn run<S: System>(sys: &S, cfg: &RunConfig, obs: &mut dyn Observer) -> RunRe
         });
         return report;
     }
-    let mut ew = EnergyWatch::new(sys, &start);
+    let work = if cfg.watchdog.energy_sources {
+        WorkWatch::new(
+            sys,
+            &start,
+            h,
+            integrators::multipliers_are_step_means(&cfg.method),
+        )
+    } else {
+        WorkWatch::off()
+    };
+    let loss_checked = !work::dissipates_inside(layout)
+        && !layout.joints.iter().any(|j| j.starts_inactive)
+        && !relaxes(&cfg.method);
     let every = cfg.every.max(1) as u64;
     let lengths = joint_lengths(sys, &start);
+    let floor = energy_floor(layout, &lengths, length_scale(sys), h);
+    let mut ew = EnergyWatch::new(sys, &start, work, loss_checked, floor);
     // A lock engages when its angle passes the limit, so its row starts with the overshoot of
     // that step (up to ω·h), which the method removes over the next steps: the violation stop
     // skips a joint for ENGAGE_GRACE steps after one of its rows becomes active.
     let mut prev_active = start.active.clone();
     let mut grace = vec![0u8; layout.joints.len()];
 
-    // the initial frame
-    probe.holonomic(sys, &start);
-    track(layout, &probe, &ew, &lengths, &mut report);
-    emit(sys, &start, 0, &mut probe, obs, &ew);
+    // The initial frame is handed out once the method has started: the meshes' state at
+    // t = 0 (their accelerations under the loads at t = 0, and the balance's half-step term
+    // that goes with them) is the integrator's.
+    let mut initial_frame = true;
     'attempt: loop {
         prev_active.copy_from_slice(&start.active);
         grace.iter_mut().for_each(|g| *g = 0);
-        let mut integ = match integrators::make(&cfg.method, sys, h, &start) {
+        let made = integrators::make(&cfg.method, sys, h, &start);
+        if initial_frame {
+            initial_frame = false;
+            if let Ok(integ) = &made {
+                if !layout.meshes.is_empty() {
+                    integ.state(sys, &mut st);
+                    start.mesh.clone_from(&st.mesh);
+                    ew.restart_meshes(sys, &start);
+                }
+            }
+            probe.holonomic(sys, &start);
+            track(layout, &probe, &ew, &lengths, &mut report);
+            emit(sys, &start, 0, &mut probe, obs, &ew);
+        }
+        let mut integ = match made {
             Ok(i) => i,
             Err(e) => {
                 report.failure = Some(Failure {
@@ -427,9 +580,9 @@ pub fn run<S: System>(sys: &S, cfg: &RunConfig, obs: &mut dyn Observer) -> RunRe
             // violation (constraint values only) and the energy of the synchronized state.
             let failure = failure.or_else(|| {
                 probe.holonomic(sys, &st);
-                ew.observe(sys, &st);
-                track(layout, &probe, &ew, &lengths, &mut report);
                 engaged(layout, &mut prev_active, &st.active, &mut grace);
+                ew.observe(sys, &st, grace.iter().any(|g| *g > 0));
+                track(layout, &probe, &ew, &lengths, &mut report);
                 check(sys, cfg, &st, &probe, report.steps, h, &ew, &grace)
             });
             let failure = match failure {
@@ -438,6 +591,7 @@ pub fn run<S: System>(sys: &S, cfg: &RunConfig, obs: &mut dyn Observer) -> RunRe
                     if k % every == 0 || k == n_total {
                         emit(sys, &st, report.steps, &mut probe, obs, &ew);
                         start.clone_from(&st);
+                        ew.save();
                     }
                     None
                 }
@@ -447,6 +601,7 @@ pub fn run<S: System>(sys: &S, cfg: &RunConfig, obs: &mut dyn Observer) -> RunRe
                     OnFailure::HalveStep(max) if report.retries < max => {
                         report.retries += 1;
                         h /= 2.0;
+                        ew.restore();
                         obs.notice(&format!(
                             "{f}\nretrying from t = {:.6} s with the step halved to {h:.3e} s (retry {} of {max})",
                             start.t, report.retries
@@ -490,6 +645,7 @@ pub fn run<S: System>(sys: &S, cfg: &RunConfig, obs: &mut dyn Observer) -> RunRe
         break;
     }
     report.step = h;
+    report.energy = ew.balance();
     obs.progress(report.t_end);
     let (ratio, joint, length) = &report.max_relative_violation;
     if *ratio > JOINT_LENGTH_WARNING {
@@ -504,11 +660,27 @@ pub fn run<S: System>(sys: &S, cfg: &RunConfig, obs: &mut dyn Observer) -> RunRe
             }
         ));
     }
+    let drift = report.max_energy_drift;
+    // (where a loss is not booked — locks, damped beams, dynamic relaxation — the balance's
+    // error is not an accuracy measure, and only its growth is checked)
+    if drift > ENERGY_BALANCE_WARNING && report.failure.is_none() && report.energy.loss_checked {
+        report.warnings.push(format!(
+            "warning: the energy balance (kinetic + potential − work of forces and drivers) was off by up to {:.1} % of the energy in play ({:.3e} J): the answer is not accurate to better than that. Reduce the step (now {h:.3e} s){}",
+            100.0 * drift,
+            report.energy.in_play,
+            if cfg.method.name() == "implicit_trapezoid" { "" } else { " or compare with method implicit_trapezoid" }
+        ));
+    }
     for w in &report.warnings {
         obs.notice(w);
     }
     report
 }
+
+/// Above this error of the energy balance, relative to the energy in play
+/// ([`RunReport::max_energy_drift`]), a run that finishes says at its end that its answer is
+/// not accurate to better than that; above [`Watchdog::max_energy_growth`] it stops.
+pub const ENERGY_BALANCE_WARNING: f64 = 1e-2;
 
 /// The method's statistics, named.
 fn stats<S: System>(integ: &dyn integrators::Integrator<S>) -> Vec<(String, f64)> {
@@ -664,6 +836,7 @@ fn emit<S: System>(
         state,
         kinetic: ew.kinetic,
         potential: ew.potential,
+        work: ew.work_in(),
         momentum: [p.x, p.y, p.z],
         angular_momentum: [l.x, l.y, l.z],
         violation: &probe.violation,
@@ -741,42 +914,68 @@ fn check<S: System>(
             });
         }
     }
-    if !w.energy_sources {
-        let growth = ew.relative_change();
-        if growth > w.max_energy_growth {
-            // the body with the largest kinetic energy is where it shows
-            let (mut best, mut who) = (0.0, 0usize);
-            for (i, t) in st.twist.iter().enumerate() {
-                let m = &layout.mass[i];
-                let k = 0.5 * m.m * t.v.norm_squared() + 0.5 * t.w.dot(&(m.j * t.w));
-                if k > best {
-                    best = k;
-                    who = i;
-                }
+    let change = ew.relative_change();
+    let grew = change > w.max_energy_growth;
+    let lost = ew.loss_checked && change < -w.max_energy_growth;
+    if grew || lost {
+        // the body with the largest kinetic energy is where it shows
+        let (mut best, mut who) = (0.0, 0usize);
+        for (i, t) in st.twist.iter().enumerate() {
+            let m = &layout.mass[i];
+            let k = 0.5 * m.m * t.v.norm_squared() + 0.5 * t.w.dot(&(m.j * t.w));
+            if k > best {
+                best = k;
+                who = i;
             }
-            // a scene of meshes alone has no body to name
-            let location = if !layout.meshes.is_empty() && st.mesh_kinetic() >= best {
-                match layout.meshes.blocks.as_slice() {
-                    [b] => format!("mesh '{}'", b.name),
-                    _ => "the meshes".into(),
-                }
-            } else if who < layout.body_names.len() {
-                format!("body '{}'", layout.body_names[who])
-            } else {
-                "system".into()
-            };
-            return Some(Failure {
-                time: st.t,
-                step,
-                location,
-                quantity: "relative energy growth".into(),
-                value: growth,
-                cause: "energy grows although the scene has no energy source: the integration is unstable (step above the stability limit, or stiff springs or fast spin for an explicit method)".into(),
-                hint: Some(format!("reduce the step (now {h:.3e} s) or use method implicit_trapezoid")),
-            });
         }
+        // a scene of meshes alone has no body to name
+        let location = if !layout.meshes.is_empty() && st.mesh_kinetic() >= best {
+            match layout.meshes.blocks.as_slice() {
+                [b] => format!("mesh '{}'", b.name),
+                _ => "the meshes".into(),
+            }
+        } else if who < layout.body_names.len() {
+            format!("body '{}'", layout.body_names[who])
+        } else {
+            "the system".into()
+        };
+        let method = cfg.method.name();
+        let (cause, hint) = if grew {
+            (
+                "energy appeared that no force or driver put in (kinetic + potential − work of forces and drivers grew): the integration is unstable or inaccurate here (step above the stability limit, stiff springs or fast spin for an explicit method, a driver the method cannot follow)",
+                if method == "implicit_trapezoid" {
+                    format!("reduce the step (now {h:.3e} s)")
+                } else {
+                    format!("reduce the step (now {h:.3e} s) or use method implicit_trapezoid")
+                },
+            )
+        } else {
+            (
+                "energy disappeared that no damper, contact or driver took out (kinetic + potential − work of forces and drivers fell): the method dissipates (constraint stabilization, projection, a coarse step) and the motion is wrong by as much",
+                if method == "staggered" {
+                    format!("reduce the step (now {h:.3e} s)")
+                } else {
+                    format!("reduce the step (now {h:.3e} s) or use method staggered")
+                },
+            )
+        };
+        return Some(Failure {
+            time: st.t,
+            step,
+            location,
+            quantity: "energy balance error (K + V − W − E₀) / energy in play".into(),
+            value: change,
+            cause: cause.into(),
+            hint: Some(hint),
+        });
     }
     None
+}
+
+/// Whether a method marches to a static solution (dynamic relaxation removes kinetic
+/// energy on purpose).
+fn relaxes(m: &MethodSpec) -> bool {
+    matches!(m, MethodSpec::Staggered(o) if o.relaxation == crate::contract::scene::Relaxation::Kinetic)
 }
 
 fn step_failure<S: System>(sys: &S, e: &StepError, t: f64, step: u64, h: f64) -> Failure {
@@ -870,6 +1069,7 @@ impl Observer for ToWriter<'_> {
         out.twists.copy_from_slice(&f.state.twist);
         out.kinetic = f.kinetic;
         out.potential = f.potential;
+        out.work = f.work;
         out.momentum = f.momentum;
         out.angular_momentum = f.angular_momentum;
         out.violation.copy_from_slice(f.violation);
@@ -921,6 +1121,7 @@ impl Observer for ToWriter<'_> {
             e.dissipated,
             e.plastic,
             e.tie_work,
+            e.half_step,
             e.mesh_balance(),
         ];
         if let Err(e) = self.writer.submit(out) {
@@ -980,6 +1181,7 @@ pub fn run_to_dir<S: System>(
     summary.max_violation_joint =
         (!report.max_violation.1.is_empty()).then(|| report.max_violation.1.clone());
     summary.max_energy_drift = Some(report.max_energy_drift);
+    summary.energy_balance = Some(report.energy);
     for (k, v) in &report.stats {
         let value = serde_json::Number::from_f64(*v).map_or_else(
             || serde_json::Value::String(v.to_string()),

@@ -104,6 +104,17 @@ impl State {
 /// options out of range ([`crate::analysis::input_limits::check_method`]), and a dense method
 /// (`coordinate_partitioning`, `implicit_trapezoid`, `staggered` with `factorization
 /// dense`) on a system of more than [`crate::analysis::input_limits::MAX_DENSE_UNKNOWNS`] unknowns.
+/// Whether `method` reports as a state's multipliers the mean constraint force over the step
+/// that produced it (`implicit_trapezoid`: the step's whole constraint impulse over h),
+/// rather than the force at the state's time (every other method). The energy balance books
+/// a driver's work accordingly ([`crate::driver::work`]).
+pub fn multipliers_are_step_means(method: &crate::contract::scene::MethodSpec) -> bool {
+    matches!(
+        method,
+        crate::contract::scene::MethodSpec::ImplicitTrapezoid { .. }
+    )
+}
+
 pub fn make<'a, S: System + 'a>(
     method: &crate::contract::scene::MethodSpec,
     sys: &S,

@@ -87,14 +87,11 @@ impl Status {
 /// Sort a failure (the fields of [`crate::driver::run_loop::Failure`]) into diverged (the solution blew
 /// up) or stopped (the method gave up).
 pub fn classify(t: f64, quantity: &str, location: &str, value: f64, cause: &str) -> Status {
-    let blew_up = [
-        "state",
-        "constraint violation",
-        "relative energy growth",
-        "constraint force",
-    ]
-    .iter()
-    .any(|k| quantity.starts_with(k));
+    // energy that grew blew up; energy that disappeared is a method giving a wrong answer
+    let blew_up = ["state", "constraint violation", "constraint force"]
+        .iter()
+        .any(|k| quantity.starts_with(k))
+        || (quantity.starts_with("energy balance") && value > 0.0);
     if blew_up {
         Status::Diverged {
             t,

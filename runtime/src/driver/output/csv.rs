@@ -50,11 +50,12 @@ pub const BODY_COLUMNS: [&str; 13] = [
 ];
 
 /// Columns of `energy.csv`.
-pub const ENERGY_COLUMNS: [&str; 11] = [
+pub const ENERGY_COLUMNS: [&str; 12] = [
     "t",
     "kinetic",
     "potential",
     "total",
+    "work",
     "drift",
     "px",
     "py",
@@ -122,6 +123,7 @@ pub(crate) fn energy_row(out: &mut String, f: &Frame, drift: f64) {
         f.kinetic,
         f.potential,
         f.kinetic + f.potential,
+        f.work,
         drift,
         px,
         py,

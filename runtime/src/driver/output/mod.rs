@@ -45,18 +45,20 @@
 //! | file | columns |
 //! |---|---|
 //! | `bodies.csv` | `t`, then per body `<body>.x .y .z .qw .qx .qy .qz .vx .vy .vz .wx .wy .wz` (position and velocity world, quaternion body → world, angular velocity body components) |
-//! | `energy.csv` | `t, kinetic, potential, total, drift, px, py, pz, Lx, Ly, Lz` (momenta world, angular about the world origin) |
+//! | `energy.csv` | `t, kinetic, potential, total, work, drift, px, py, pz, Lx, Ly, Lz` (`work`: done since t = 0 by point forces and torques, dampers, contact damping and drivers, see `driver::work`; momenta world, angular about the world origin) |
 //! | `constraints.csv` | `t`, then per joint `<joint>.violation`, `<joint>.velocity_violation` (joints with nonholonomic rows only), `<joint>.lambda0 …` (one per row) |
 //! | `beams.pvd`, `beams/beams_NNNNNN.vtp` | scenes with beams: a ParaView time series, one VTK PolyData file per frame (nodes as points, elements as lines, the section quantities as cell data; see `vtk.rs`) |
 //! | `mesh.pvd`, `mesh/mesh_NNNNNN.vtu` | scenes with meshes: a ParaView time series, one VTK UnstructuredGrid per frame (reference points with `displacement` and `velocity`, elements with `stress`, `strain`, `von_mises`, and with a plastic mesh `plastic_strain` and `equivalent_plastic_strain`; see `vtu.rs`) |
-//! | `mesh_energy.csv` | scenes with meshes: `t, kinetic, strain, hourglass, foundation, external_work, dissipated, plastic, tie_work, balance` (J): `balance = kinetic + strain + hourglass + foundation − external_work − tie_work + dissipated + plastic`, constant up to the method's error (`strain` is the elastic strain energy, `plastic` the plastic work, `tie_work` the work the bodies do on the meshes through ties; tied nodes' kinetic energy is their body's) |
+//! | `mesh_energy.csv` | scenes with meshes: `t, kinetic, strain, hourglass, foundation, external_work, dissipated, plastic, tie_work, half_step, balance` (J): `balance = kinetic + strain + hourglass + foundation − external_work − tie_work + dissipated + plastic + half_step`, constant up to the method's error (`half_step = −(h²/8) Σ m |a|²` makes the kinetic energy that of the half-step velocities, which the central difference conserves; `strain` is the elastic strain energy, `plastic` the plastic work, `tie_work` the work the bodies do on the meshes through ties; tied nodes' kinetic energy is their body's) |
 //! | `beams.csv` | scenes with beams: one row per element and frame, `t, beam, element, s` (arc length of the element's midpoint, unstrained), section forces `N1 N2 N3` (axial, shear 2, shear 3; N), moments `M1 M2 M3` (torsion, bending 2, bending 3; N·m), strains `gamma1 gamma2 gamma3` and curvatures `kappa1 kappa2 kappa3` (1/m), all in the element's convected frame |
 //!
 //! Only the files the [`OutputSpec`] asks for are created.
 //!
-//! `drift` is `(E − E₀) / E_ref` with `E₀` the total energy of the first frame and
-//! `E_ref = max(|E₀|, K_max + (V_max − V_min), 10⁻³⁰⁰)` over the frames written so far:
-//! the energy in play, as in the run driver's report. Unlike `|E₀|` alone it does not
+//! `drift` is the error of the energy balance, `(E − W − E₀) / E_ref`, with `E = K + V` the
+//! total energy, `W` the work column, `E₀` the total energy of the first frame (less its
+//! work) and `E_ref = max(|E₀|, K_max + (V_max − V_min), |W|_max, 10⁻³⁰⁰)` over the frames
+//! written so far: the energy in play, as in the run driver's report (which also counts
+//! every step between frames). Unlike `|E₀|` alone it does not
 //! divide by zero when the potential datum makes `E₀ = 0`, and unlike `K + |V|` it does
 //! not depend on where the potential's zero is once anything has moved.
 
@@ -107,6 +109,9 @@ pub struct Frame {
     pub kinetic: f64,
     /// Potential energy, J.
     pub potential: f64,
+    /// Work done since t = 0 by what the potential energy does not hold (point forces and
+    /// torques, dampers, contact damping, drivers), J.
+    pub work: f64,
     /// Linear momentum, world components.
     pub momentum: [f64; 3],
     /// Angular momentum about the world origin, world components.
@@ -133,7 +138,7 @@ pub struct Frame {
     /// Per mesh element: mean equivalent plastic strain (empty when no mesh is plastic).
     pub mesh_equivalent_plastic_strain: Vec<f64>,
     /// The meshes' energies, J, in the order of [`MESH_ENERGY_COLUMNS`].
-    pub mesh_energy: [f64; 9],
+    pub mesh_energy: [f64; 10],
 }
 
 impl Frame {
@@ -146,6 +151,7 @@ impl Frame {
             twists: vec![Twist::default(); layout.bodies()],
             kinetic: 0.0,
             potential: 0.0,
+            work: 0.0,
             momentum: [0.0; 3],
             angular_momentum: [0.0; 3],
             violation: vec![0.0; layout.joints.len()],
@@ -158,7 +164,7 @@ impl Frame {
             mesh_strain: vec![[0.0; 6]; layout.meshes.elements()],
             mesh_plastic_strain: vec![[0.0; 6]; plastic_elements(layout)],
             mesh_equivalent_plastic_strain: vec![0.0; plastic_elements(layout)],
-            mesh_energy: [0.0; 9],
+            mesh_energy: [0.0; 10],
         }
     }
 
@@ -253,6 +259,52 @@ pub struct Failure {
     pub cause: String,
     /// What to try.
     pub hint: Option<String>,
+}
+
+/// The energy balance of a run where it ended (the `energy_balance` object of
+/// `summary.json`): `kinetic + potential − work_forces − work_drivers − start` is the
+/// balance's error, zero for an exact solution.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct EnergyBalance {
+    /// Kinetic energy at the end, J (bodies, beam nodes, mesh nodes).
+    #[serde(with = "json::f64_any")]
+    pub kinetic: f64,
+    /// Potential energy at the end, J: gravity, springs, contact, the beams' strain energy and
+    /// the meshes' stored energy less their own loads' work plus their dissipation.
+    #[serde(with = "json::f64_any")]
+    pub potential: f64,
+    /// Work done since the start by point forces and torques, dampers and contact damping
+    /// (positive: energy put in), J.
+    #[serde(with = "json::f64_any")]
+    pub work_forces: f64,
+    /// Work done since the start by drivers and prescribed velocities, J.
+    #[serde(with = "json::f64_any")]
+    pub work_drivers: f64,
+    /// The energy change over the steps with an impulse the states do not show — a lock
+    /// engaging (usually a loss), a driver's rate jumping — J; counted like work.
+    #[serde(default, with = "json::f64_any")]
+    pub impulses: f64,
+    /// Kinetic plus potential energy at the start, J.
+    #[serde(with = "json::f64_any")]
+    pub start: f64,
+    /// The energy in play the error is measured against, J: the largest of |start|, the
+    /// largest kinetic energy plus the potential energy's range, and the largest work.
+    #[serde(with = "json::f64_any")]
+    pub in_play: f64,
+    /// Whether an energy loss stops the run too (false with locks, damped beams or dynamic
+    /// relaxation, whose dissipation is not booked).
+    pub loss_checked: bool,
+}
+
+impl EnergyBalance {
+    /// The balance's error, J: `kinetic + potential − work − impulses − start`.
+    pub fn error(&self) -> f64 {
+        self.kinetic + self.potential
+            - self.work_forces
+            - self.work_drivers
+            - self.impulses
+            - self.start
+    }
 }
 
 /// A run stopped from outside before its end: by a signal (`SIGINT`, `SIGTERM`) or another
@@ -351,6 +403,9 @@ pub struct Summary {
     /// Largest `|drift|` (see the module doc); filled in like `max_constraint_violation`.
     #[serde(with = "json::opt_f64_any")]
     pub max_energy_drift: Option<f64>,
+    /// The energy balance where the run ended (absent in the summary written at the start).
+    #[serde(default)]
+    pub energy_balance: Option<EnergyBalance>,
     /// Frames written to the CSV files (set by [`OutputWriter::finish`]).
     pub frames: u64,
     /// Method statistics and anything else (iterations, retries, ...).
@@ -374,6 +429,7 @@ impl Summary {
             max_constraint_violation: None,
             max_violation_joint: None,
             max_energy_drift: None,
+            energy_balance: None,
             frames: 0,
             extra: BTreeMap::new(),
         }
@@ -566,6 +622,7 @@ struct Stats {
     k_max: f64,
     v_min: f64,
     v_max: f64,
+    w_max: f64,
     max_drift: f64,
     max_violation: f64,
     max_violation_joint: Option<usize>,
@@ -574,7 +631,7 @@ struct Stats {
 impl Stats {
     /// Update with a frame; returns its drift.
     fn add(&mut self, f: &Frame) -> f64 {
-        let e = f.kinetic + f.potential;
+        let e = f.kinetic + f.potential - f.work;
         let e0 = *self.e0.get_or_insert(e);
         if self.frames == 0 {
             self.v_min = f.potential;
@@ -584,9 +641,11 @@ impl Stats {
         self.k_max = self.k_max.max(f.kinetic);
         self.v_min = self.v_min.min(f.potential);
         self.v_max = self.v_max.max(f.potential);
+        self.w_max = self.w_max.max(f.work.abs());
         let scale = e0
             .abs()
             .max(self.k_max + (self.v_max - self.v_min))
+            .max(self.w_max)
             .max(1e-300);
         let drift = (e - e0) / scale;
         // Maxima keep the first NaN they see (f64::max would ignore it).

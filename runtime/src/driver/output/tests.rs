@@ -168,21 +168,21 @@ fn csv_round_trip_is_exact() {
     let (h, rows) = read_csv(&out.join("energy.csv"));
     assert_eq!(h, ENERGY_COLUMNS);
     for (row, f) in rows.iter().zip(&sent) {
-        let expect = [f.t, f.kinetic, f.potential, f.kinetic + f.potential];
+        let expect = [f.t, f.kinetic, f.potential, f.kinetic + f.potential, f.work];
         for (k, e) in expect.iter().enumerate() {
             assert!(same(row[k], *e));
         }
         for k in 0..3 {
-            assert!(same(row[5 + k], f.momentum[k]));
-            assert!(same(row[8 + k], f.angular_momentum[k]));
+            assert!(same(row[6 + k], f.momentum[k]));
+            assert!(same(row[9 + k], f.angular_momentum[k]));
         }
     }
     // Drift: E = 1 − step, E₀ = 1, energy in play = K_max + (V_max − V_min) = 50 + 98.
     let last = rows.last().unwrap();
     assert!(
-        (last[4] - (-49.0 / (50.0 + 98.0))).abs() < 1e-15,
+        (last[5] - (-49.0 / (50.0 + 98.0))).abs() < 1e-15,
         "drift {}",
-        last[4]
+        last[5]
     );
 
     let mut raw = String::new();
@@ -488,4 +488,39 @@ fn summary_json_round_trip() {
     assert!(back.max_energy_drift.unwrap().is_nan());
     assert_eq!(back.max_constraint_violation, None);
     assert!(serde_json::from_str::<Summary>(&text.replace("\"-inf\"", "\"minus\"")).is_err());
+}
+
+#[test]
+fn the_drift_is_the_error_of_the_balance_with_the_work() {
+    // A body pushed from rest: the energy grows by exactly the work done on it, so the
+    // balance K + V − W − E₀ has no error; the same frames without the work drift by 1.
+    for (work, want) in [(true, 0.0), (false, 3.0 / 4.0)] {
+        let dir = tempfile::tempdir().unwrap();
+        let mut w = OutputWriter::create(dir.path(), &layout(), &ALL, meta()).unwrap();
+        for step in 0..4 {
+            let mut f = w.frame();
+            f.t = step as f64;
+            f.kinetic = 1.0 + step as f64;
+            f.work = if work { step as f64 } else { 0.0 };
+            w.submit(f).unwrap();
+        }
+        let mut s = Summary::started(&meta());
+        s.energy_balance = Some(EnergyBalance {
+            kinetic: 4.0,
+            work_forces: 3.0,
+            start: 1.0,
+            in_play: 4.0,
+            ..EnergyBalance::default()
+        });
+        let written = w.finish(&s).unwrap();
+        // E_ref = max(|E₀| = 1, K_max = 4, |W|_max = 3) = 4
+        let d = written.max_energy_drift.unwrap();
+        assert!((d - want).abs() < 1e-15, "work {work}: drift {d}");
+        let back = Summary::read(&dir.path().join("summary.json")).unwrap();
+        assert_eq!(back.energy_balance, s.energy_balance);
+        assert_eq!(back.energy_balance.unwrap().error(), 0.0);
+        let (h, rows) = read_csv(&dir.path().join("energy.csv"));
+        let col = h.iter().position(|c| c == "work").unwrap();
+        assert_eq!(rows[3][col], if work { 3.0 } else { 0.0 });
+    }
 }

@@ -20,7 +20,7 @@ use crate::contract::scene::ElementKind;
 use crate::contract::system::Layout;
 
 /// Columns of `mesh_energy.csv` after `t`.
-pub const MESH_ENERGY_COLUMNS: [&str; 9] = [
+pub const MESH_ENERGY_COLUMNS: [&str; 10] = [
     "kinetic",
     "strain",
     "hourglass",
@@ -29,6 +29,7 @@ pub const MESH_ENERGY_COLUMNS: [&str; 9] = [
     "dissipated",
     "plastic",
     "tie_work",
+    "half_step",
     "balance",
 ];
 
