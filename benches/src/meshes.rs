@@ -11,15 +11,8 @@
 //! with 1 and 2 threads on the same meshes, [`assembly_strategies`]; also alone as
 //! `meshes-assembly [SCALE] [ROUNDS]`).
 //!
-//! In the rates table hex8 one-point runs through [`Mirror`], a copy of
-//! `MeshDynamics::step`'s passes with the element options chosen here (it predates the
-//! language's `integration reduced`, and is kept so that the table stays comparable with
-//! the recorded one); the mirror is checked bitwise against `MeshDynamics` and timed side
-//! by side with it on hex8 2×2×2. The strategies table runs `MeshDynamics` on every type,
-//! hex8 one-point through the language's `integration reduced; hourglass viscous(0.1)`.
-
-// Kernel-style loops index several per-node arrays with one counter.
-#![allow(clippy::needless_range_loop)]
+//! Every mesh runs through `MeshDynamics`, the runtime's mesh step; hex8 one-point through
+//! the language's `integration reduced; hourglass viscous(0.1)`.
 
 use std::hint::black_box;
 use std::sync::Arc;
@@ -31,17 +24,11 @@ use mbdc_runtime::integrators::MeshState;
 use mbdc_runtime::mesh_layout::MeshLayout;
 use mbdc_runtime::mesh_model;
 use mbdc_runtime::mesh_plan::{Assembly, AssemblyOptions};
-use mbdc_runtime::solid::{
-    self, Elastic, ElementOptions, ElementResponse, Hourglass, Integration, MAX_NODES,
-};
 use mbdc_runtime::study::thread_cpu_time;
 use rayon::prelude::*;
 
 /// Bytes in a GiB.
 const GIB: f64 = (1u64 << 30) as f64;
-
-/// Elements below which the element loop runs on one thread (as in `MeshDynamics`).
-const PARALLEL_ELEMENTS: usize = 2048;
 
 /// A rayon pool of `threads` threads.
 fn pool(threads: usize) -> rayon::ThreadPool {
@@ -317,250 +304,9 @@ fn start_state(l: &MeshLayout) -> MeshState {
     st
 }
 
-/// A copy of `MeshDynamics::step`'s passes (no loads, prescribed motions or foundation:
-/// the benchmark scenes have none) with element options chosen by the caller.
-struct Mirror {
-    l: Arc<MeshLayout>,
-    opts: Vec<ElementOptions>,
-    mats: Vec<Elastic>,
-    h: f64,
-    u: Vec<[f64; 3]>,
-    v: Vec<[f64; 3]>,
-    a: Vec<[f64; 3]>,
-    du: Vec<[f64; 3]>,
-    f_ext: Vec<[f64; 3]>,
-    f_found: Vec<[f64; 3]>,
-    reaction: Vec<[f64; 3]>,
-    slots: Vec<[f64; 3]>,
-    stress: Vec<[f64; 6]>,
-    strain: Vec<[f64; 6]>,
-    /// Strain energy, hourglass energy, hourglass power, min det J.
-    scalars: Vec<[f64; 4]>,
-    energy: [f64; 4],
-}
-
-impl Mirror {
-    fn new(l: Arc<MeshLayout>, opts: impl Fn(&ElementOptions) -> ElementOptions, h: f64) -> Self {
-        let (n, ne) = (l.nodes(), l.elements());
-        let st = start_state(&l);
-        let mut m = Mirror {
-            opts: l
-                .blocks
-                .iter()
-                .map(|b| opts(&mesh_model::options(b)))
-                .collect(),
-            mats: l
-                .blocks
-                .iter()
-                .map(|b| mesh_model::elastic(&b.material))
-                .collect(),
-            h,
-            u: st.u,
-            v: st.v,
-            a: vec![[0.0; 3]; n],
-            du: vec![[0.0; 3]; n],
-            f_ext: vec![[0.0; 3]; n],
-            f_found: vec![[0.0; 3]; n],
-            reaction: vec![[0.0; 3]; n],
-            slots: vec![[0.0; 3]; l.total_slots()],
-            stress: vec![[0.0; 6]; ne],
-            strain: vec![[0.0; 6]; ne],
-            scalars: vec![[0.0; 4]; ne],
-            energy: [0.0; 4],
-            l,
-        };
-        for (n, c) in m.l.constrained.iter().enumerate() {
-            for k in 0..3 {
-                if c[k] {
-                    m.u[n][k] = 0.0;
-                    m.v[n][k] = 0.0;
-                }
-            }
-        }
-        m.accelerations();
-        m
-    }
-
-    fn work_rate(&self) -> f64 {
-        self.f_ext
-            .iter()
-            .zip(&self.reaction)
-            .zip(&self.du)
-            .map(|((f, r), d)| (f[0] + r[0]) * d[0] + (f[1] + r[1]) * d[1] + (f[2] + r[2]) * d[2])
-            .sum()
-    }
-
-    fn step(&mut self) {
-        let h = self.h;
-        for (((v, a), u), du) in self
-            .v
-            .iter_mut()
-            .zip(&self.a)
-            .zip(self.u.iter_mut())
-            .zip(self.du.iter_mut())
-        {
-            for k in 0..3 {
-                v[k] += 0.5 * h * a[k];
-                du[k] = h * v[k];
-                u[k] += du[k];
-            }
-        }
-        let w0 = self.work_rate();
-        self.accelerations();
-        let w1 = self.work_rate();
-        for (v, a) in self.v.iter_mut().zip(&self.a) {
-            for k in 0..3 {
-                v[k] += 0.5 * h * a[k];
-            }
-        }
-        self.energy[3] += 0.5 * (w0 + w1);
-        self.energy[2] += h * self.scalars.iter().map(|s| s[2]).sum::<f64>();
-        self.energy[0] = 0.5
-            * self
-                .v
-                .iter()
-                .zip(&self.l.mass)
-                .map(|(v, m)| m * (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]))
-                .sum::<f64>();
-        self.energy[1] = self.scalars.iter().map(|s| s[0]).sum::<f64>()
-            + self.scalars.iter().map(|s| s[1]).sum::<f64>();
-    }
-
-    fn accelerations(&mut self) {
-        let l = &*self.l;
-        for f in self.f_ext.iter_mut() {
-            *f = [0.0; 3];
-        }
-        let (u, v) = (&self.u, &self.v);
-        for (bi, b) in l.blocks.iter().enumerate() {
-            let (opts, mat) = (&self.opts[bi], &self.mats[bi]);
-            let npe = b.kind.nodes();
-            let (e0, ne) = (b.first_element, b.elements());
-            let slots = &mut self.slots[b.first_slot..b.first_slot + ne * npe];
-            let stress = &mut self.stress[e0..e0 + ne];
-            let strain = &mut self.strain[e0..e0 + ne];
-            let scalars = &mut self.scalars[e0..e0 + ne];
-            let one = |e: usize,
-                       fs: &mut [[f64; 3]],
-                       st: &mut [f64; 6],
-                       sn: &mut [f64; 6],
-                       sc: &mut [f64; 4]| {
-                let mut x0 = [[0.0; 3]; MAX_NODES];
-                let mut ue = [[0.0; 3]; MAX_NODES];
-                let mut ve = [[0.0; 3]; MAX_NODES];
-                for (a, &g) in b.element_nodes(e).iter().enumerate() {
-                    x0[a] = l.x0[g as usize];
-                    ue[a] = u[g as usize];
-                    ve[a] = v[g as usize];
-                }
-                let mut r = ElementResponse::default();
-                solid::respond(
-                    b.kind,
-                    opts,
-                    mat,
-                    &x0[..npe],
-                    &ue[..npe],
-                    &ve[..npe],
-                    &mut r,
-                );
-                fs.copy_from_slice(&r.f[..npe]);
-                *st = r.stress;
-                *sn = r.strain;
-                *sc = [
-                    r.strain_energy,
-                    r.hourglass_energy,
-                    r.hourglass_power,
-                    r.min_jacobian,
-                ];
-            };
-            if ne >= PARALLEL_ELEMENTS {
-                slots
-                    .par_chunks_mut(npe)
-                    .zip(stress.par_iter_mut())
-                    .zip(strain.par_iter_mut())
-                    .zip(scalars.par_iter_mut())
-                    .enumerate()
-                    .with_min_len(256)
-                    .for_each(|(e, (((fs, st), sn), sc))| one(e, fs, st, sn, sc));
-            } else {
-                for (e, (((fs, st), sn), sc)) in slots
-                    .chunks_mut(npe)
-                    .zip(stress.iter_mut())
-                    .zip(strain.iter_mut())
-                    .zip(scalars.iter_mut())
-                    .enumerate()
-                {
-                    one(e, fs, st, sn, sc);
-                }
-            }
-            assert!(scalars.iter().all(|s| s[3] > 0.0), "an element inverted");
-        }
-        let (slots, f_ext, f_found) = (&self.slots, &self.f_ext, &self.f_found);
-        let gather = |n: usize, a: &mut [f64; 3], r: &mut [f64; 3]| {
-            let mut f = [
-                f_ext[n][0] + f_found[n][0],
-                f_ext[n][1] + f_found[n][1],
-                f_ext[n][2] + f_found[n][2],
-            ];
-            for &s in &l.slots[l.first[n] as usize..l.first[n + 1] as usize] {
-                let fe = slots[s as usize];
-                for k in 0..3 {
-                    f[k] -= fe[k];
-                }
-            }
-            let inv_m = 1.0 / l.mass[n];
-            let c = l.constrained[n];
-            for k in 0..3 {
-                if c[k] {
-                    r[k] = l.mass[n] * a[k] - f[k];
-                } else {
-                    a[k] = f[k] * inv_m;
-                    r[k] = 0.0;
-                }
-            }
-        };
-        if l.nodes() >= PARALLEL_ELEMENTS {
-            self.a
-                .par_iter_mut()
-                .zip(self.reaction.par_iter_mut())
-                .enumerate()
-                .with_min_len(512)
-                .for_each(|(n, (a, r))| gather(n, a, r));
-        } else {
-            for (n, (a, r)) in self.a.iter_mut().zip(self.reaction.iter_mut()).enumerate() {
-                gather(n, a, r);
-            }
-        }
-        assert!(
-            self.a.iter().all(|a| a.iter().all(|x| x.is_finite())),
-            "a non-finite acceleration"
-        );
-    }
-}
-
-/// Something that steps a mesh.
-trait Stepper: Send {
-    fn advance(&mut self);
-}
-
-impl Stepper for MeshDynamics {
-    fn advance(&mut self) {
-        self.step().expect("the benchmark mesh steps");
-    }
-}
-
-impl Stepper for Mirror {
-    fn advance(&mut self) {
-        self.step();
-    }
-}
-
-/// The options of hex8 one-point with viscous hourglass control (coefficient 0.1).
-fn one_point(o: &ElementOptions) -> ElementOptions {
-    ElementOptions {
-        integration: Integration::Reduced(Hourglass::Viscous { coefficient: 0.1 }),
-        ..*o
-    }
+/// One step of a benchmark mesh (which has no loads that could make it fail).
+fn advance(md: &mut MeshDynamics) {
+    md.step().expect("the benchmark mesh steps");
 }
 
 /// The compiled scene of `ty` with about `n` elements.
@@ -584,7 +330,7 @@ struct Case {
     ty: Type,
     elements: usize,
     nodes: usize,
-    stepper: Box<dyn Stepper>,
+    md: MeshDynamics,
     /// Best seconds per step, per pool.
     best: [f64; 2],
     /// CPU seconds and wall seconds of the 2-thread timings.
@@ -599,18 +345,13 @@ fn case(ty: Type, n: usize) -> Case {
     drop(scene);
     assert_eq!(layout.elements(), elements);
     let nodes = layout.nodes();
-    let stepper: Box<dyn Stepper> = match ty {
-        Type::Hex8OnePoint => Box::new(Mirror::new(layout, one_point, h)),
-        _ => {
-            let st = start_state(&layout);
-            Box::new(MeshDynamics::new(layout, h, 0.0, &st).expect("starts"))
-        }
-    };
+    let st = start_state(&layout);
+    let md = MeshDynamics::new(layout, h, 0.0, &st).expect("starts");
     Case {
         ty,
         elements,
         nodes,
-        stepper,
+        md,
         best: [f64::INFINITY; 2],
         cpu_wall: [0.0; 2],
     }
@@ -629,17 +370,12 @@ pub fn memory_child(ty: &str, n: usize, steps: usize) {
     let h = scene.simulate.step;
     let rss = status_bytes("VmRSS").unwrap_or(f64::NAN);
     let layout = Arc::new(mesh_model::build(&scene.meshes).expect("a valid mesh"));
-    let mut stepper: Box<dyn Stepper> = match ty {
-        Type::Hex8OnePoint => Box::new(Mirror::new(layout, one_point, h)),
-        _ => {
-            let st = start_state(&layout);
-            Box::new(MeshDynamics::new(layout, h, 0.0, &st).expect("starts"))
-        }
-    };
+    let st = start_state(&layout);
+    let mut md = MeshDynamics::new(layout, h, 0.0, &st).expect("starts");
     let built = status_bytes("VmHWM").unwrap_or(f64::NAN);
     let t0 = Instant::now();
     for _ in 0..steps {
-        stepper.advance();
+        advance(&mut md);
     }
     let per_step = t0.elapsed().as_secs_f64() / steps.max(1) as f64;
     let end = status_bytes("VmHWM").unwrap_or(f64::NAN);
@@ -690,55 +426,22 @@ fn load_average() -> String {
 }
 
 /// Steps per timing so that one timing lasts about `seconds` (from one timed step).
-fn calibrate(s: &mut dyn Stepper, p: &rayon::ThreadPool, seconds: f64) -> usize {
+fn calibrate(md: &mut MeshDynamics, p: &rayon::ThreadPool, seconds: f64) -> usize {
     let t0 = Instant::now();
-    p.install(|| s.advance());
+    p.install(|| advance(md));
     let t = t0.elapsed().as_secs_f64();
     ((seconds / t).ceil() as usize).clamp(2, 2000)
 }
 
 /// Times `steps` steps in pool `p`: seconds per step.
-fn time(s: &mut dyn Stepper, p: &rayon::ThreadPool, steps: usize) -> f64 {
+fn time(md: &mut MeshDynamics, p: &rayon::ThreadPool, steps: usize) -> f64 {
     p.install(|| {
         let t0 = Instant::now();
         for _ in 0..steps {
-            s.advance();
+            advance(md);
         }
         t0.elapsed().as_secs_f64() / steps as f64
     })
-}
-
-/// Checks that the mirror computes what `MeshDynamics` computes (hex8 2×2×2, 10³ elements,
-/// 20 steps, bitwise) and returns the time per step of mirror / `MeshDynamics` at `n`
-/// elements, one thread, interleaved.
-fn mirror_check(p: &rayon::ThreadPool, n: usize, rounds: usize, seconds: f64) -> f64 {
-    let (scene, _) = compile(Type::Hex8Full, 1000);
-    let l = Arc::new(mesh_model::build(&scene.meshes).expect("a valid mesh"));
-    let h = scene.simulate.step;
-    let mut md = MeshDynamics::new(l.clone(), h, 0.0, &start_state(&l)).expect("starts");
-    let mut mi = Mirror::new(l, |o| *o, h);
-    for _ in 0..20 {
-        md.step().expect("steps");
-        mi.step();
-    }
-    let mut st = MeshState::default();
-    md.state(&mut st);
-    assert!(
-        st.u == mi.u && st.v == mi.v,
-        "the mirror departs from MeshDynamics"
-    );
-    let (scene, _) = compile(Type::Hex8Full, n);
-    let l = Arc::new(mesh_model::build(&scene.meshes).expect("a valid mesh"));
-    drop(scene);
-    let mut md = MeshDynamics::new(l.clone(), h, 0.0, &start_state(&l)).expect("starts");
-    let mut mi = Mirror::new(l, |o| *o, h);
-    let steps = calibrate(&mut md, p, seconds);
-    let (mut a, mut b) = (f64::INFINITY, f64::INFINITY);
-    for _ in 0..rounds {
-        a = a.min(time(&mut mi, p, steps));
-        b = b.min(time(&mut md, p, steps));
-    }
-    a / b
 }
 
 /// The `meshes` subcommand: `scale ≥ 1` adds the 10⁶-element meshes.
@@ -776,10 +479,6 @@ pub fn meshes(scale: f64, rounds: usize) {
         ),
         None => println!("| same, AVX2 + FMA | not available |"),
     }
-    let ratio = mirror_check(&pools[0], 10_000, rounds, seconds);
-    println!(
-        "| check: bench mirror of `MeshDynamics::step` / the real step, hex8 2×2×2, 10⁴ elements (bitwise equal results) | {ratio:.3} |"
-    );
 
     let mut sizes = vec![1_000, 10_000, 100_000];
     if scale >= 1.0 {
@@ -796,13 +495,13 @@ pub fn meshes(scale: f64, rounds: usize) {
         let two = n == largest;
         let steps: Vec<usize> = cases
             .iter_mut()
-            .map(|c| calibrate(c.stepper.as_mut(), &pools[0], seconds))
+            .map(|c| calibrate(&mut c.md, &pools[0], seconds))
             .collect();
         for _ in 0..rounds {
             for (c, &s) in cases.iter_mut().zip(&steps) {
                 for (k, p) in pools.iter().enumerate().take(if two { 2 } else { 1 }) {
                     let (cpu, wall) = (cpu_seconds(), Instant::now());
-                    let t = time(c.stepper.as_mut(), p, s);
+                    let t = time(&mut c.md, p, s);
                     c.best[k] = c.best[k].min(t);
                     if k == 1 {
                         c.cpu_wall[0] += cpu_seconds() - cpu;
@@ -990,7 +689,7 @@ pub fn assembly_strategies(
             for c in &mut cands {
                 pools[1].install(|| {
                     for _ in 0..3 {
-                        c.md.advance();
+                        advance(&mut c.md);
                     }
                 });
                 let mut st = MeshState::default();
@@ -1018,7 +717,7 @@ pub fn assembly_strategies(
                     let (cpu, wall) = pools[0].install(|| {
                         let (c0, w0) = (thread_cpu_time(), Instant::now());
                         for _ in 0..steps {
-                            c.md.advance();
+                            advance(&mut c.md);
                         }
                         (thread_cpu_time() - c0, w0.elapsed().as_secs_f64())
                     });

@@ -202,6 +202,26 @@ pub fn simulate_watched(
     }
 }
 
+/// [`simulate`] in a rayon pool of 1, then 2, then 4 threads: each thread count with its
+/// trajectory, in that order, for the checks that a result does not depend on the number
+/// of threads.
+pub fn simulate_on_1_2_4_threads(
+    scene: &Scene,
+    method: MethodSpec,
+    h: f64,
+    duration: f64,
+    every: u32,
+) -> [(usize, Trajectory); 3] {
+    [1, 2, 4].map(|threads| {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .expect("pool");
+        let run = pool.install(|| simulate(scene, method.clone(), h, duration, every));
+        (threads, run)
+    })
+}
+
 /// A method by name with its default options.
 pub fn method(name: &str) -> MethodSpec {
     MethodSpec::default_for(name).expect("known method")

@@ -305,18 +305,11 @@ model threads {
 "#,
     );
     let h = step_of(&scene);
-    let run = |threads: usize| {
-        rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .expect("pool")
-            .install(|| simulate(&scene, method("staggered"), h, 20.0 * h, 20))
-    };
-    let one = run(1);
+    let [(_, one), others @ ..] =
+        simulate_on_1_2_4_threads(&scene, method("staggered"), h, 20.0 * h, 20);
     assert!(one.report.finished, "{:?}", one.report.failure);
     assert!(one.last().mesh.u.iter().any(|u| u[0] != 0.0));
-    for n in [2, 4] {
-        let other = run(n);
+    for (n, other) in &others {
         assert_eq!(one.last().mesh.u, other.last().mesh.u, "{n} threads");
         assert_eq!(
             one.last().mesh.stress,

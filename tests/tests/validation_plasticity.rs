@@ -402,19 +402,12 @@ model threads {
 "#,
     );
     let h = step_of(&scene);
-    let run = |threads: usize| {
-        rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .expect("pool")
-            .install(|| simulate(&scene, method("staggered"), h, 20.0 * h, 20))
-    };
-    let one = run(1);
+    let [(_, one), others @ ..] =
+        simulate_on_1_2_4_threads(&scene, method("staggered"), h, 20.0 * h, 20);
     assert!(one.report.finished, "{:?}", one.report.failure);
     let m1 = &one.last().mesh;
     assert!(m1.energy.plastic > 0.0, "the block yields");
-    for n in [2, 4] {
-        let other = run(n);
+    for (n, other) in &others {
         let m = &other.last().mesh;
         assert_eq!(m1.u, m.u, "{n} threads");
         assert_eq!(m1.stress, m.stress, "{n} threads");

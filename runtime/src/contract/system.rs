@@ -367,9 +367,13 @@ pub trait System: Sync {
     /// The meshes' element loops chosen by generated code: a
     /// `mbdc_runtime::integrators::mesh_kernels::BlockKernels` (one monomorphized loop per
     /// block of [`Layout::meshes`], in block order), behind [`std::any::Any`] because this
-    /// contract sits below the integrators that define it. Default: `None`, and the
-    /// integrators choose each block's loop from its kind at run time (the interpreter).
-    /// Generated code overrides it only for scenes with meshes.
+    /// contract sits below the integrators that define it. The table cannot move down to
+    /// this floor: each entry is a `fn(BlockArgs)`, and `BlockArgs` carries the integrators'
+    /// assembler and the solid kernels' options, materials and plastic responses, none of
+    /// which this floor may name. Its one reader, `integrators::make`, downcasts it and
+    /// refuses a run when it is anything else. Default: `None`, and the integrators choose
+    /// each block's loop from its kind at run time (the interpreter). Generated code
+    /// overrides it only for scenes with meshes.
     fn mesh_kernels(&self) -> Option<&dyn std::any::Any> {
         None
     }

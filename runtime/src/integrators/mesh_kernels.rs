@@ -9,6 +9,11 @@
 //! `match` over every kind ([`BlockKernels::interpreted`]); generated code writes its own,
 //! naming only the kernels its blocks use (`BlockKernel::elastic::<Hex8>()`), and hands it
 //! to the integrators through [`System::mesh_kernels`](crate::contract::system::System).
+//! That hook is typed `Any` because the table lives here and not in the contract floor
+//! below: a [`BlockFn`] takes [`BlockArgs`], which holds this floor's `Assembler` and
+//! `BlockEval` (the solid kernels' `ElementOptions`, `Elastic`, `Plastic`) and the kernels'
+//! `PlasticResponse` outputs, and the contract may name nothing outside itself; the
+//! constructors [`BlockKernel::elastic`] and [`BlockKernel::plastic`] name the loops below.
 //!
 //! The loops run their elements through the [`Assembler`] (which decides order and
 //! threads) and evaluate each with the same per-type kernels as

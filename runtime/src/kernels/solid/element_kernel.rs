@@ -259,33 +259,53 @@ fn plastic_plane(
     r
 }
 
-impl ElementKernel for Bar2 {
-    const NAME: &'static str = "Bar2";
-    const KIND: ElementKind = ElementKind::Bar2;
-    const NODES: usize = 2;
-    const REDUCED: bool = false;
-    #[inline]
-    fn respond(
-        opts: &ElementOptions,
-        mat: &Elastic,
-        x0: &[[f64; 3]],
-        u: &[[f64; 3]],
-        v: &[[f64; 3]],
-        out: &mut ElementResponse,
-    ) {
+/// The [`ElementKernel`] impl of `$ty`: its constants, and the bodies of `respond` and
+/// `respond_plastic` with the parameter names they use (a name starting with `_` for a
+/// parameter the body does not read), so that each impl states only what differs.
+macro_rules! kernel {
+    (
+        $ty:ident: $kind:ident, $nodes:literal nodes, reduced $reduced:literal;
+        respond($opts:ident, $mat:ident, $x0:ident, $u:ident, $v:ident, $out:ident) $respond:block
+        respond_plastic(
+            $p_opts:ident, $p_mat:ident, $plastic:ident, $p_x0:ident, $p_u:ident, $p_v:ident,
+            $points:ident, $p_out:ident
+        ) $respond_plastic:block
+    ) => {
+        impl ElementKernel for $ty {
+            const NAME: &'static str = stringify!($ty);
+            const KIND: ElementKind = ElementKind::$kind;
+            const NODES: usize = $nodes;
+            const REDUCED: bool = $reduced;
+            #[inline]
+            fn respond(
+                $opts: &ElementOptions,
+                $mat: &Elastic,
+                $x0: &[[f64; 3]],
+                $u: &[[f64; 3]],
+                $v: &[[f64; 3]],
+                $out: &mut ElementResponse,
+            ) $respond
+            #[inline]
+            fn respond_plastic(
+                $p_opts: &ElementOptions,
+                $p_mat: &Elastic,
+                $plastic: &Plastic,
+                $p_x0: &[[f64; 3]],
+                $p_u: &[[f64; 3]],
+                $p_v: &[[f64; 3]],
+                $points: PlasticPoints<'_>,
+                $p_out: &mut ElementResponse,
+            ) -> PlasticResponse $respond_plastic
+        }
+    };
+}
+
+kernel! {
+    Bar2: Bar2, 2 nodes, reduced false;
+    respond(opts, mat, x0, u, v, out) {
         bar2::respond(opts, mat, nodes(x0), nodes(u), nodes(v), out)
     }
-    #[inline]
-    fn respond_plastic(
-        opts: &ElementOptions,
-        mat: &Elastic,
-        plastic: &Plastic,
-        x0: &[[f64; 3]],
-        u: &[[f64; 3]],
-        _v: &[[f64; 3]],
-        points: PlasticPoints<'_>,
-        out: &mut ElementResponse,
-    ) -> PlasticResponse {
+    respond_plastic(opts, mat, plastic, x0, u, _v, points, out) {
         bar2::respond_plastic(opts, mat, plastic, nodes(x0), nodes(u), points, out)
     }
 }
@@ -294,20 +314,9 @@ impl ElementKernel for Bar2 {
 /// mode `$plane`.
 macro_rules! plane_kernel {
     ($ty:ident, $kind:ident, $with:path, $plane:expr, $nodes:literal, $reduced:literal) => {
-        impl ElementKernel for $ty {
-            const NAME: &'static str = stringify!($ty);
-            const KIND: ElementKind = ElementKind::$kind;
-            const NODES: usize = $nodes;
-            const REDUCED: bool = $reduced;
-            #[inline]
-            fn respond(
-                opts: &ElementOptions,
-                mat: &Elastic,
-                x0: &[[f64; 3]],
-                u: &[[f64; 3]],
-                v: &[[f64; 3]],
-                out: &mut ElementResponse,
-            ) {
+        kernel! {
+            $ty: $kind, $nodes nodes, reduced $reduced;
+            respond(opts, mat, x0, u, v, out) {
                 let mut law = plane_law($plane, mat);
                 $with(
                     opts,
@@ -320,17 +329,7 @@ macro_rules! plane_kernel {
                     out,
                 );
             }
-            #[inline]
-            fn respond_plastic(
-                opts: &ElementOptions,
-                mat: &Elastic,
-                plastic: &Plastic,
-                x0: &[[f64; 3]],
-                u: &[[f64; 3]],
-                v: &[[f64; 3]],
-                points: PlasticPoints<'_>,
-                out: &mut ElementResponse,
-            ) -> PlasticResponse {
+            respond_plastic(opts, mat, plastic, x0, u, v, points, out) {
                 plastic_plane(mat, plastic, $plane, points, out, |l, out| {
                     $with(opts, mat, $plane, l, nodes(x0), nodes(u), nodes(v), out)
                 })
@@ -388,90 +387,37 @@ plane_kernel!(
     true
 );
 
-impl ElementKernel for Tet4 {
-    const NAME: &'static str = "Tet4";
-    const KIND: ElementKind = ElementKind::Tet4;
-    const NODES: usize = 4;
-    const REDUCED: bool = false;
-    #[inline]
-    fn respond(
-        opts: &ElementOptions,
-        mat: &Elastic,
-        x0: &[[f64; 3]],
-        u: &[[f64; 3]],
-        v: &[[f64; 3]],
-        out: &mut ElementResponse,
-    ) {
+kernel! {
+    Tet4: Tet4, 4 nodes, reduced false;
+    respond(opts, mat, x0, u, v, out) {
         tet4::respond(opts, mat, nodes(x0), nodes(u), nodes(v), out)
     }
-    #[inline]
-    fn respond_plastic(
-        opts: &ElementOptions,
-        mat: &Elastic,
-        plastic: &Plastic,
-        x0: &[[f64; 3]],
-        u: &[[f64; 3]],
-        v: &[[f64; 3]],
-        points: PlasticPoints<'_>,
-        out: &mut ElementResponse,
-    ) -> PlasticResponse {
+    respond_plastic(opts, mat, plastic, x0, u, v, points, out) {
         plastic_3d(mat, plastic, points, |l| {
             tet4::respond_with(opts, l, nodes(x0), nodes(u), nodes(v), out)
         })
     }
 }
 
-impl ElementKernel for Hex8 {
-    const NAME: &'static str = "Hex8";
-    const KIND: ElementKind = ElementKind::Hex8;
-    const NODES: usize = 8;
-    const REDUCED: bool = false;
-    #[inline]
-    fn respond(
-        opts: &ElementOptions,
-        mat: &Elastic,
-        x0: &[[f64; 3]],
-        u: &[[f64; 3]],
-        _v: &[[f64; 3]],
-        out: &mut ElementResponse,
-    ) {
+kernel! {
+    Hex8: Hex8, 8 nodes, reduced false;
+    respond(opts, mat, x0, u, _v, out) {
         let mut law = ElasticLaw {
             lambda: mat.lambda,
             mu: mat.mu,
         };
         hex8::full_with(opts, &mut law, bbar(opts), nodes(x0), nodes(u), out);
     }
-    #[inline]
-    fn respond_plastic(
-        opts: &ElementOptions,
-        mat: &Elastic,
-        plastic: &Plastic,
-        x0: &[[f64; 3]],
-        u: &[[f64; 3]],
-        _v: &[[f64; 3]],
-        points: PlasticPoints<'_>,
-        out: &mut ElementResponse,
-    ) -> PlasticResponse {
+    respond_plastic(opts, mat, plastic, x0, u, _v, points, out) {
         plastic_3d(mat, plastic, points, |l| {
             hex8::full_with(opts, l, bbar(opts), nodes(x0), nodes(u), out)
         })
     }
 }
 
-impl ElementKernel for Hex8Reduced {
-    const NAME: &'static str = "Hex8Reduced";
-    const KIND: ElementKind = ElementKind::Hex8;
-    const NODES: usize = 8;
-    const REDUCED: bool = true;
-    #[inline]
-    fn respond(
-        opts: &ElementOptions,
-        mat: &Elastic,
-        x0: &[[f64; 3]],
-        u: &[[f64; 3]],
-        v: &[[f64; 3]],
-        out: &mut ElementResponse,
-    ) {
+kernel! {
+    Hex8Reduced: Hex8, 8 nodes, reduced true;
+    respond(opts, mat, x0, u, v, out) {
         let mut law = ElasticLaw {
             lambda: mat.lambda,
             mu: mat.mu,
@@ -479,17 +425,7 @@ impl ElementKernel for Hex8Reduced {
         let hg = hourglass(opts);
         hex8::reduced_with(opts, mat, &mut law, hg, nodes(x0), nodes(u), nodes(v), out);
     }
-    #[inline]
-    fn respond_plastic(
-        opts: &ElementOptions,
-        mat: &Elastic,
-        plastic: &Plastic,
-        x0: &[[f64; 3]],
-        u: &[[f64; 3]],
-        v: &[[f64; 3]],
-        points: PlasticPoints<'_>,
-        out: &mut ElementResponse,
-    ) -> PlasticResponse {
+    respond_plastic(opts, mat, plastic, x0, u, v, points, out) {
         let hg = hourglass(opts);
         plastic_3d(mat, plastic, points, |l| {
             hex8::reduced_with(opts, mat, l, hg, nodes(x0), nodes(u), nodes(v), out)
