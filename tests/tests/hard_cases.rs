@@ -736,3 +736,94 @@ fn the_spun_up_rotor_says_its_balance() {
         tr.report.warnings
     );
 }
+
+/// The method × scene × step table of docs/stability.md (issue 21): every method on every
+/// hard scene at 20, 5 and 1 ms (durations capped at 3 s), as the energy balance judges them.
+/// Prints markdown rows; asserts the table's promise: no run finishes with a balance error
+/// above [`run_loop::ENERGY_BALANCE_WARNING`] without a warning. Ignored (a minute in a debug
+/// build): `cargo test -p mbdc-tests --test hard_cases -- --ignored --nocapture
+/// method_scene_step_table`.
+#[test]
+#[ignore]
+fn method_scene_step_table() {
+    let scenes = [
+        "toggle_four_bar",
+        "planar_four_bar",
+        "door",
+        "fast_spin",
+        "top",
+        "mass_ratio_chain",
+        "stiff_spring",
+        "point_pendulum",
+        "bob_on_a_hinge",
+        "step_torque",
+        "kinked_driver",
+        "driven_pendulum",
+    ];
+    let steps = [2e-2, 5e-3, 1e-3];
+    let names: Vec<&str> = all().collect();
+    println!(
+        "| scene | h | {} |\n|---|---|{}",
+        names.join(" | "),
+        "---|".repeat(names.len())
+    );
+    for s in scenes {
+        let scene = load_model(&format!("hard/{s}.mbd"));
+        for h in steps {
+            let mut cells = Vec::new();
+            let stable = mbdc_runtime::step_limits::estimate(&scene).stable_step();
+            for name in &names {
+                // what `mbdc run` refuses before the first step (without --force)
+                let explicit = mbdc_runtime::step_limits::is_explicit(&method(name));
+                if explicit && h > stable {
+                    cells.push("refused".to_string());
+                    continue;
+                }
+                let tr = simulate_watched(
+                    &scene,
+                    method(name),
+                    h,
+                    scene.simulate.duration.min(3.0),
+                    100,
+                );
+                let d = tr.report.max_energy_drift;
+                let cell = match &tr.report.failure {
+                    None => {
+                        let warned = tr
+                            .report
+                            .warnings
+                            .iter()
+                            .any(|w| w.contains("energy balance"));
+                        assert!(
+                            d <= run_loop::ENERGY_BALANCE_WARNING
+                                || warned
+                                || !tr.report.energy.loss_checked,
+                            "{s} {name} {h}: finished with balance error {d} and no warning"
+                        );
+                        format!("ok {d:.0e}{}", if warned { " (warns)" } else { "" })
+                    }
+                    Some(f) => format!("stop: {} at {:.2} s", short(&f.quantity), f.time),
+                };
+                cells.push(cell);
+            }
+            println!("| {s} | {h:.0e} | {} |", cells.join(" | "));
+        }
+    }
+}
+
+/// A failure's quantity in a few words for the table.
+fn short(q: &str) -> &str {
+    if q.starts_with("energy balance") {
+        "energy"
+    } else if q.starts_with("constraint violation") {
+        "violation"
+    } else if q.contains("Newton") {
+        "Newton"
+    } else if q.contains("pivot") {
+        "singular"
+    } else if q == "start" {
+        "cannot start"
+    } else {
+        q
+    }
+}

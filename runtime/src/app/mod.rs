@@ -58,7 +58,7 @@ pub struct Settings {
 
 /// Whether a scene has forces or rows that do work the potential energy does not hold
 /// (applied forces, dampers, drivers, prescribed velocities, contact, time dependence): then
-/// the watchdog's energy balance books their work ([`crate::driver::work`]), at the cost of
+/// the watchdog's energy balance books their work (`driver/work.rs`), at the cost of
 /// one force and two potential-energy evaluations per step. Without them (gravity, springs,
 /// beams, meshes, whose own loads' work the meshes book) the balance is `K + V = E₀` and
 /// costs nothing.

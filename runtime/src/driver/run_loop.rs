@@ -12,10 +12,13 @@
 //!   length scale; it is meant to catch a diverging run, not to judge accuracy) stops the
 //!   run, naming the joint — except for [`ENGAGE_GRACE`] steps after one of the joint's rows
 //!   became active (a lock engaging starts with that step's overshoot);
-//! - in a scene with no energy source (no applied forces, no drivers, no prescribed
-//!   velocities; springs, gravity, dampers and locks are fine), total energy that grows by more
-//!   than [`Watchdog::max_energy_growth`] of the energy in play (the largest kinetic energy plus
-//!   the potential-energy range seen so far) stops it;
+//! - the energy balance `K + V − W − E₀`, with `W` the work of applied forces, dampers,
+//!   contact and drivers (`driver/work.rs`) and the impulses of locks engaging and
+//!   drivers' kinks, beyond [`Watchdog::max_energy_growth`] of the energy in play (the largest
+//!   of |E₀|, the largest kinetic energy plus the potential-energy range, the largest work)
+//!   stops it: energy that appeared, and energy that disappeared where every loss is booked
+//!   (not with locks, damped beams or dynamic relaxation); above
+//!   [`ENERGY_BALANCE_WARNING`] a run that finishes warns;
 //! - a Newton or PCG iteration that does not converge, or a singular matrix, stops it.
 //!
 //! The report's largest violation and energy drift are over every step too; its `t_end` and
@@ -69,7 +72,7 @@ pub struct Watchdog {
     pub max_energy_growth: f64,
     /// Whether the scene has non-conservative forces or time-dependent rows (applied forces,
     /// dampers, contact, drivers, prescribed velocities): then the balance books their work
-    /// ([`crate::driver::work`]), which costs one force evaluation and two potential-energy
+    /// (`driver/work.rs`), which costs one force evaluation and two potential-energy
     /// evaluations per step; without them `W = 0` and costs nothing.
     pub energy_sources: bool,
 }
@@ -115,7 +118,7 @@ pub struct Frame<'a> {
     /// Potential energy, J: gravity and springs, plus the strain energy of the beams.
     pub potential: f64,
     /// Work done on the system since t = 0 by what the potential energy does not hold
-    /// (point forces and torques, dampers, contact damping, drivers; [`crate::driver::work`]),
+    /// (point forces and torques, dampers, contact damping, drivers; `driver/work.rs`),
     /// J: `kinetic + potential − work` stays at its start value up to the method's error.
     pub work: f64,
     /// Linear momentum of the bodies and the meshes' nodes, world.

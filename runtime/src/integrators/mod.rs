@@ -107,7 +107,7 @@ impl State {
 /// Whether `method` reports as a state's multipliers the mean constraint force over the step
 /// that produced it (`implicit_trapezoid`: the step's whole constraint impulse over h),
 /// rather than the force at the state's time (every other method). The energy balance books
-/// a driver's work accordingly ([`crate::driver::work`]).
+/// a driver's work accordingly (`driver/work.rs`).
 pub fn multipliers_are_step_means(method: &crate::contract::scene::MethodSpec) -> bool {
     matches!(
         method,
