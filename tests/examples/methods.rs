@@ -41,7 +41,9 @@ fn main() {
                     method: method(name),
                     every: u32::MAX,
                     on_failure: OnFailure::Stop,
-                    watchdog: Watchdog::for_scale(1.0, true),
+                    // the watchdog `mbdc run` gives the scene (the double pendulum and the
+                    // chain have no work to book)
+                    watchdog: Watchdog::for_scale(1.0, mbdc_runtime::app::energy_sources(&scene)),
                 };
                 let t0 = Instant::now();
                 let r = run_loop::run(&sys, &cfg, &mut Quiet);

@@ -147,8 +147,10 @@ impl Observer for Recorder {
 }
 
 /// Run `scene` through the interpreter with `method` and step `h` for `duration`, keeping a
-/// frame every `every` steps. The watchdog is on (sources assumed, so energy growth is not
-/// checked); a failure ends the trajectory and is in `report.failure`.
+/// frame every `every` steps. The watchdog is on and books the work of forces and drivers
+/// whatever the scene (`energy_sources` true: for a scene without them `W` stays 0 up to
+/// round-off), so its energy balance is checked as `mbdc run` checks it; a failure ends the
+/// trajectory and is in `report.failure`.
 pub fn simulate(
     scene: &Scene,
     method: MethodSpec,
@@ -173,8 +175,8 @@ pub fn simulate(
     }
 }
 
-/// [`simulate`] with the watchdog of `mbdc run`: the energy growth is checked unless the
-/// scene has energy sources ([`mbdc_runtime::app::energy_sources`]).
+/// [`simulate`] with the watchdog of `mbdc run`: the work is booked only where the scene has
+/// non-conservative forces or drivers ([`mbdc_runtime::app::energy_sources`]).
 pub fn simulate_watched(
     scene: &Scene,
     method: MethodSpec,
