@@ -527,8 +527,9 @@ pub fn run<S: System>(sys: &S, cfg: &RunConfig, obs: &mut dyn Observer) -> RunRe
     // t = 0 (their accelerations under the loads at t = 0, and the balance's half-step term
     // that goes with them) is the integrator's.
     let mut initial_frame = true;
-    // steps left in which the balance's change is a lock's impact (see IMPACT_STEPS)
-    let mut impact_left = 0u8;
+    // steps left in which the balance's change is a lock's impact (see IMPACT_STEPS); set
+    // at the start of each attempt
+    let mut impact_left: u8;
     'attempt: loop {
         prev_active.copy_from_slice(&start.active);
         grace.iter_mut().for_each(|g| *g = 0);
