@@ -1,7 +1,7 @@
 //! # mbdc: the command-line program
 //!
 //! Front end only: argument parsing, rendering diagnostics (miette), progress bars, plots
-//! and driving cargo for generated scenes. The work is done by `mbdc-compiler` and
+//! the 3-D replay page (`view`) and driving cargo for generated scenes. The work is done by `mbdc-compiler` and
 //! `mbdc-runtime`.
 //!
 //! Each subcommand lives in its own module under `commands/` with an `Args` struct (clap
@@ -13,6 +13,7 @@ mod plot;
 mod render;
 mod scene_crate;
 mod step_gate;
+mod view;
 
 use std::process::ExitCode;
 
@@ -40,6 +41,8 @@ enum Command {
     Sweep(commands::sweep::Args),
     /// Draw the plots of a run's output folder, or chosen quantities against time.
     Plot(commands::plot::Args),
+    /// Replay a run in 3-D in the browser: write OUTDIR/view.html (self-contained) and open it.
+    View(commands::view::Args),
 }
 
 /// Restores the default action of SIGPIPE (end the process quietly), as Unix tools do.
@@ -69,5 +72,6 @@ fn main() -> ExitCode {
         Command::Build(a) => commands::build::run(a),
         Command::Sweep(a) => commands::sweep::run(a),
         Command::Plot(a) => commands::plot::run(a),
+        Command::View(a) => commands::view::run(a),
     }
 }

@@ -15,6 +15,50 @@ fn out_dir(name: &str) -> PathBuf {
 /// the steps it should take, a constraint violation below 1e-8 (the models' own ε: 1e-6 for the
 /// papers' bowling ball and crank gives εΔλ ≈ 4e-5 there; the deployment arm's locks overshoot
 /// by one step) and an output folder with the CSVs.
+/// `mbdc view` of a run's folder: the page is written, its data block holds every frame
+/// the run shows (every k-th and the last) and one body slot per body of bodies.csv.
+/// Returns the data block.
+fn replay(dir: &std::path::Path, model: &str) -> serde_json::Value {
+    let out = command()
+        .args(["view", "--no-open"])
+        .arg(dir)
+        .output()
+        .expect("runs");
+    assert!(
+        out.status.success(),
+        "{model}: mbdc view: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let html = std::fs::read_to_string(dir.join("view.html")).expect("view.html");
+    let open = r#"<script id="mbdc-view-data" type="application/json">"#;
+    let start = html.find(open).expect("data block") + open.len();
+    let end = start + html[start..].find("</script>").unwrap();
+    let d: serde_json::Value =
+        serde_json::from_str(&html[start..end].replace("<\\/", "</")).expect("JSON");
+    let s = summary(dir);
+    let frames = d["frames"]["count"].as_u64().unwrap();
+    let every = d["frames"]["shown_every"].as_u64().unwrap();
+    let run_frames = s["frames"].as_u64().unwrap();
+    assert_eq!(
+        d["frames"]["run_frames"].as_u64().unwrap(),
+        run_frames,
+        "{model}"
+    );
+    // every k-th frame from the first, and the last
+    let expect = run_frames.div_ceil(every) + u64::from(!(run_frames - 1).is_multiple_of(every));
+    assert_eq!(frames, expect, "{model}: {}", d["frames"]);
+    if dir.join("bodies.csv").exists() {
+        let head = std::fs::read_to_string(dir.join("bodies.csv")).unwrap();
+        let cols = head.lines().next().unwrap().split(',').count();
+        assert_eq!(
+            d["bodies"].as_array().unwrap().len(),
+            (cols - 1) / 13,
+            "{model}"
+        );
+    }
+    d
+}
+
 #[test]
 fn every_rigid_model_runs_to_the_end() {
     for (model, max_violation) in [
@@ -53,6 +97,17 @@ fn every_rigid_model_runs_to_the_end() {
         for f in ["bodies.csv", "energy.csv", "constraints.csv"] {
             assert!(dir.join(f).exists(), "{model}: no {f}");
         }
+        let page = replay(&dir, model);
+        // every joint of the scene the run wrote is drawn (the torque-free body has none;
+        // the deployment arm's locks are rows of its revolutes, not joints of their own)
+        let scene: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(dir.join("scene.json")).unwrap())
+                .unwrap();
+        assert_eq!(
+            page["joints"].as_array().unwrap().len(),
+            scene["joints"].as_array().unwrap().len(),
+            "{model}"
+        );
         let _ = std::fs::remove_dir_all(&dir);
     }
 }
@@ -228,6 +283,15 @@ fn every_mesh_model_runs_and_writes_its_series() {
                 "{model}: summary mesh_energy.{k}: {terms}"
             );
         }
+        let page = replay(&dir, model);
+        let meshes = page["meshes"].as_array().unwrap();
+        assert!(
+            meshes
+                .iter()
+                .all(|m| !m["triangles"].as_array().unwrap().is_empty()
+                    || !m["lines"].as_array().unwrap().is_empty()),
+            "{model}: a mesh without a surface in the replay"
+        );
         let vtu = std::fs::read_to_string(dir.join("mesh").join("mesh_000001.vtu")).expect("vtu");
         let plastic = model.starts_with("plastic_");
         assert_eq!(

@@ -6,3 +6,4 @@ pub mod fmt;
 pub mod plot;
 pub mod run;
 pub mod sweep;
+pub mod view;

@@ -89,6 +89,10 @@ pub struct Args {
     /// No progress bar and no summary (errors are still printed).
     #[arg(short, long)]
     pub quiet: bool,
+    /// At the end, write OUTDIR/view.html, the run's 3-D replay (`mbdc view`), and open it
+    /// where a browser can be opened.
+    #[arg(long)]
+    pub view: bool,
     /// Run even if the step is above the stability limit of an explicit method.
     #[arg(long)]
     pub force: bool,
@@ -266,10 +270,27 @@ pub fn run(args: Args) -> ExitCode {
     {
         return code;
     }
-    if !args.interp {
-        return run_compiled(&scene, &args);
+    let code = if args.interp {
+        simulate(&sys, &scene, &args)
+    } else {
+        run_compiled(&scene, &args)
+    };
+    if args.view {
+        let dir = args
+            .out
+            .clone()
+            .unwrap_or_else(|| PathBuf::from("out").join(&scene.name));
+        // also after a failure: the replay shows where it went wrong
+        if dir.join("summary.json").exists() {
+            crate::commands::view::write_and_open(
+                &dir,
+                crate::view::ViewOptions::default(),
+                true,
+                args.quiet,
+            );
+        }
     }
-    simulate(&sys, &scene, &args)
+    code
 }
 
 fn assemble(sys: &mut Interp, quiet: bool) -> Result<(), ExitCode> {
@@ -312,6 +333,10 @@ pub fn simulate<S: System>(sys: &S, scene: &Scene, args: &Args) -> ExitCode {
         duration: cfg.duration,
     };
     note_unfinished(&dir, args.quiet);
+    if let Err(e) = mbdc_runtime::output::write_scene(&dir, scene) {
+        eprintln!("error: writing the output folder {}: {e}", dir.display());
+        return ExitCode::FAILURE;
+    }
     let mut progress = Progress::new(cfg.duration, args.quiet).stop_on_signals();
     let result = run_loop::run_to_dir(sys, &cfg, meta, &scene.simulate.output, &dir, &mut progress);
     progress.finish();

@@ -281,6 +281,9 @@ pub fn run_with<M: CompiledModel>(args: &Args) -> ExitCode {
         last: Instant::now(),
         signals: signals.as_ref(),
     };
+    if let Err(e) = crate::driver::output::write_scene(&dir, &scene) {
+        return fail(format!("writing the output folder {}: {e}", dir.display()));
+    }
     let result = run_loop::run_to_dir(&sys, &cfg, meta, &scene.simulate.output, &dir, &mut rep);
     // the run is over: a signal ends the program at once again
     drop(signals);

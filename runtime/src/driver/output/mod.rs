@@ -44,6 +44,7 @@
 //!
 //! | file | columns |
 //! |---|---|
+//! | `scene.json` | the scene the run simulated, its meshes without nodes and elements (see `scene_file.rs`; written by `mbdc run` and generated programs before the first step) |
 //! | `bodies.csv` | `t`, then per body `<body>.x .y .z .qw .qx .qy .qz .vx .vy .vz .wx .wy .wz` (position and velocity world, quaternion body → world, angular velocity body components) |
 //! | `energy.csv` | `t, kinetic, potential, total, work, drift, px, py, pz, Lx, Ly, Lz` (`work`: done since t = 0 by point forces and torques, dampers, contact damping and drivers, see `driver::work`; momenta world, angular about the world origin) |
 //! | `constraints.csv` | `t`, then per joint `<joint>.violation`, `<joint>.velocity_violation` (joints with nonholonomic rows only), `<joint>.lambda0 …` (one per row) |
@@ -65,10 +66,12 @@
 mod csv;
 mod frame_pool;
 mod json;
+mod scene_file;
 pub mod size_estimate;
 mod vtk;
 mod vtu;
 
+pub use scene_file::{read_scene, write_scene, SCENE_FILE};
 pub use size_estimate::{estimate, OutputEstimate};
 pub use vtu::{von_mises, MESH_ENERGY_COLUMNS};
 
