@@ -17,6 +17,7 @@ import { existsSync, readFileSync } from 'node:fs';
 import { dirname, join, resolve } from 'node:path';
 import { fileURLToPath } from 'node:url';
 import { inflateSync } from 'node:zlib';
+import { tmpdir } from 'node:os';
 
 const here = dirname(fileURLToPath(import.meta.url));
 const CHROME = process.env.CHROMIUM || '/usr/bin/chromium';
@@ -124,7 +125,7 @@ function checkPage(page, runs) {
     if (ready && state.ready) ok(`${tag}: ready`); else fail(`${tag}: not ready`);
     if (state.errors.length === 0) ok(`${tag}: no errors`); else fail(`${tag}: errors ${JSON.stringify(state.errors)}`);
     ok(`${tag}: showing frame ${state.frame} at t=${state.t}`);
-    const img = screenshot(url, `/tmp/mbdc-check-${k}.png`);
+    const img = screenshot(url, join(tmpdir(), `mbdc-check-${k}.png`));
     shots.push(img);
     if (img.w === state.width) ok(`${tag}: screenshot width ${img.w}`); else fail(`${tag}: screenshot width ${img.w} != ${state.width}`);
     for (const b of state.bodies) {
