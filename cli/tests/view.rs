@@ -407,3 +407,55 @@ fn structural_and_failed_pages_run_without_script_errors() {
     }
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// Every model in models/ that runs gets a page: a short run of each (interpreted, 0.2 ms),
+/// then `mbdc view`. A run refused before its first step writes no folder and is skipped;
+/// any folder a run wrote, finished or stopped, must give a page.
+#[test]
+fn every_model_that_runs_gets_a_page() {
+    let dir = scratch("view-every-model");
+    let mut models = Vec::new();
+    for sub in ["models", "models/hard", "models/bench"] {
+        for e in std::fs::read_dir(root().join(sub)).unwrap() {
+            let p = e.unwrap().path();
+            if p.extension().is_some_and(|x| x == "mbd") {
+                models.push(p);
+            }
+        }
+    }
+    models.sort();
+    assert!(models.len() > 30, "{} models", models.len());
+    let mut viewed = 0;
+    for m in &models {
+        let name = m.file_stem().unwrap().to_string_lossy().to_string();
+        let out = dir.join(&name);
+        let o = mbdc(&[
+            "run",
+            "--interp",
+            "-q",
+            "--duration",
+            "0.0002",
+            "-o",
+            s(&out),
+            s(m),
+        ]);
+        if !out.join("summary.json").exists() {
+            assert!(
+                !o.status.success(),
+                "{name}: no folder from a run that succeeded"
+            );
+            continue;
+        }
+        view(&out);
+        let d = page_data(&out.join("view.html"));
+        assert!(d["frames"]["count"].as_u64().unwrap() >= 1, "{name}");
+        viewed += 1;
+        let _ = std::fs::remove_dir_all(&out);
+    }
+    assert!(
+        viewed * 10 >= models.len() * 9,
+        "only {viewed} of {} models ran",
+        models.len()
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
