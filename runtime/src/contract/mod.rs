@@ -11,6 +11,8 @@
 //! - [`mesh_layout`]: finite-element meshes flattened for the explicit method (`MeshLayout`),
 //!   and [`mesh_plan`]: the assembly strategies and their plans.
 //! - [`math`]: rotation math (Euler parameters, rotation matrices, the Cayley update).
+//! - [`persist`]: the state a run carries between steps, saved and loaded by one visitor
+//!   (checkpoints and bit-identical restart).
 //!
 //! **Imports nothing else of the crate.** Everything above builds on these types; nothing
 //! here may know a kernel, an integrator or a writer.
@@ -20,5 +22,6 @@ pub mod joint_kernel;
 pub mod math;
 pub mod mesh_layout;
 pub mod mesh_plan;
+pub mod persist;
 pub mod scene;
 pub mod system;

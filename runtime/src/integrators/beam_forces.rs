@@ -60,6 +60,63 @@ fn node(pose: &[Pose], twist: &[Twist], b: usize) -> BeamNode {
 }
 
 impl BeamForces {
+    /// Save or load the elements' states (their resultants, accumulated strains and the
+    /// frames and lengths of the last evaluation), forces and event counters.
+    pub fn persist(&mut self, v: &mut dyn crate::contract::persist::StateVisitor) {
+        use crate::contract::persist;
+        // per element: N, M, γ, κ (12), ℓ₀, ℓⁿ (2), Tⁿ (9), S₁ⁿ, S₂ⁿ (18), the two nodes (6)
+        const PER: usize = 47;
+        let mut buf: Vec<f64> = Vec::with_capacity(self.states.len() * PER);
+        for e in &self.states {
+            buf.extend_from_slice(e.n.as_slice());
+            buf.extend_from_slice(e.m.as_slice());
+            buf.extend_from_slice(e.gamma.as_slice());
+            buf.extend_from_slice(e.kappa.as_slice());
+            buf.push(e.l0);
+            buf.push(e.l_prev);
+            buf.extend_from_slice(e.t_prev.as_slice());
+            buf.extend_from_slice(e.s_prev[0].as_slice());
+            buf.extend_from_slice(e.s_prev[1].as_slice());
+            buf.extend_from_slice(e.x_prev[0].as_slice());
+            buf.extend_from_slice(e.x_prev[1].as_slice());
+        }
+        v.f64s("beam.states", &mut buf);
+        for (e, b) in self.states.iter_mut().zip(buf.chunks(PER)) {
+            let mut it = b.iter().copied();
+            let mut take =
+                |dst: &mut [f64]| dst.iter_mut().for_each(|d| *d = it.next().unwrap_or(0.0));
+            take(e.n.as_mut_slice());
+            take(e.m.as_mut_slice());
+            take(e.gamma.as_mut_slice());
+            take(e.kappa.as_mut_slice());
+            take(std::slice::from_mut(&mut e.l0));
+            take(std::slice::from_mut(&mut e.l_prev));
+            take(e.t_prev.as_mut_slice());
+            let [s0, s1] = &mut e.s_prev;
+            take(s0.as_mut_slice());
+            take(s1.as_mut_slice());
+            let [x0, x1] = &mut e.x_prev;
+            take(x0.as_mut_slice());
+            take(x1.as_mut_slice());
+        }
+        let mut w: Vec<Wrench> = self.wrench.iter().flatten().copied().collect();
+        persist::wrenches(v, "beam.wrench", &mut w);
+        for (d, s) in self.wrench.iter_mut().zip(w.chunks(2)) {
+            d.copy_from_slice(s);
+        }
+        persist::u64(
+            v,
+            "beam.large_rotation_steps",
+            &mut self.large_rotation_steps,
+        );
+        let mut pending = self
+            .pending_notice
+            .map_or([f64::NAN; 2], |(e, r)| [e as f64, r]);
+        v.f64s("beam.pending_notice", &mut pending);
+        self.pending_notice = (!pending[0].is_nan()).then(|| (pending[0] as usize, pending[1]));
+        persist::bool(v, "beam.reported", &mut self.reported);
+    }
+
     /// The beams of `layout` (`None` if it has none), starting from `start`: its element
     /// states if it carries them (a restart), else stress-free in its configuration.
     /// The nodal forces are those of the states' resultants at `start`'s positions (and the

@@ -340,6 +340,9 @@ impl<S: System> Integrator<S> for Rigid {
     fn end_notice(&self) -> Option<String> {
         each!(self, i => Integrator::<S>::end_notice(i))
     }
+    fn persist(&mut self, v: &mut dyn crate::contract::persist::StateVisitor) -> bool {
+        each!(self, i => Integrator::<S>::persist(i, v))
+    }
 }
 
 /// A rigid (and beam) integrator, if the scene has bodies, and the meshes' explicit
@@ -563,5 +566,13 @@ pub trait Integrator<S: System> {
     /// that has not converged). The driver gives it to the observer and the run report.
     fn end_notice(&self) -> Option<String> {
         None
+    }
+    /// Save or load (by the visitor) every value the method carries from one step to the
+    /// next, so that a run restarted from a checkpoint continues bitwise as it would have
+    /// ([`crate::contract::persist`]). Returns `false` if the method cannot do that yet (the
+    /// run then refuses to checkpoint, naming the method).
+    fn persist(&mut self, v: &mut dyn crate::contract::persist::StateVisitor) -> bool {
+        let _ = v;
+        false
     }
 }

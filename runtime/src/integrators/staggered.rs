@@ -88,6 +88,7 @@ use super::beam_forces::BeamForces;
 use super::common::{self, accel, b_minv, b_times, bt_lambda, qbar, Index1};
 use super::{Integrator, StartError, State, StepError, StepInfo};
 use crate::contract::math::cayley_update;
+use crate::contract::persist::{self, StateVisitor};
 use crate::contract::scene::{Factorization, Gyroscopic, LintForm, Relaxation, StaggeredOptions};
 use crate::contract::system::{ConstraintEval, Need, Pose, RowKind, System, Twist, Wrench};
 use crate::linalg::{Backend, Definiteness, KSolver, KSolverOptions, LinalgError};
@@ -1166,6 +1167,61 @@ fn midpoint_kick(
 impl<S: System> Integrator<S> for TwoStage {
     fn name(&self) -> &'static str {
         self.name
+    }
+
+    fn persist(&mut self, v: &mut dyn StateVisitor) -> bool {
+        // what the start set from the initial state (ε, tolerance, relaxation length) and
+        // everything a step leaves for the next: both sequences, the half-step velocities,
+        // the multipliers and their history, the loads of the last kick, the activity of the
+        // rows, the statistics and the beams' element states
+        persist::f64(v, "h", &mut self.h);
+        persist::f64(v, "epsilon", &mut self.epsilon);
+        v.f64s("e", &mut self.e);
+        v.f64s("e_eff", &mut self.e_eff);
+        v.f64s("lambda_guess", &mut self.lambda_guess);
+        persist::u64(v, "regularized_steps", &mut self.regularized_steps);
+        persist::twists(v, "vel_prev", &mut self.vel_prev);
+        persist::twists(v, "vel_sync", &mut self.vel_sync);
+        persist::f64(v, "tau", &mut self.tau);
+        persist::f64(v, "t0", &mut self.t0);
+        persist::u64(v, "half_steps", &mut self.half_steps);
+        for seq in self.seq.iter_mut().chain(std::iter::once(&mut self.trial)) {
+            persist::poses(v, "seq.pose", &mut seq.pose);
+            persist::twists(v, "seq.vel", &mut seq.vel);
+        }
+        persist::usize(v, "x", &mut self.x);
+        v.f64s("lambda", &mut self.lambda);
+        v.f64s("lambda_prev", &mut self.lambda_prev);
+        persist::f64(v, "tau_lambda", &mut self.tau_lambda);
+        v.f64s("lambda0", &mut self.lambda0);
+        v.bools("active", &mut self.active);
+        v.bools("next_active", &mut self.next_active);
+        v.f64s("r_prev", &mut self.r_prev);
+        v.bools("fresh", &mut self.fresh);
+        persist::wrenches(v, "qbar", &mut self.qbar);
+        persist::wrenches(v, "flam", &mut self.flam);
+        persist::wrenches(v, "applied", &mut self.applied);
+        persist::constraint_eval(v, &mut self.ce);
+        persist::constraint_eval(v, &mut self.ce_trial);
+        v.f64s("tmp", &mut self.tmp);
+        v.f64s("res", &mut self.res);
+        v.f64s("dl", &mut self.dl);
+        persist::f64(v, "tol", &mut self.tol);
+        persist::u64(v, "iterations", &mut self.iterations);
+        persist::u64(v, "lints", &mut self.lints);
+        persist::u32(v, "max_iterations", &mut self.max_iterations);
+        persist::f64(v, "min_pivot_ratio", &mut self.min_pivot_ratio);
+        persist::f64(v, "ke_prev", &mut self.ke_prev);
+        persist::u64(v, "relax_resets", &mut self.relax_resets);
+        persist::poses(v, "relax_pose", &mut self.relax_pose);
+        persist::f64(v, "relax_residual", &mut self.relax_residual);
+        persist::f64(v, "relax_length", &mut self.relax_length);
+        let mut has_beams = self.beams.is_some();
+        persist::bool(v, "beams", &mut has_beams);
+        if let Some(b) = &mut self.beams {
+            b.persist(v);
+        }
+        true
     }
 
     fn time(&self) -> f64 {
