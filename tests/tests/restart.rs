@@ -5,7 +5,7 @@
 //! is compared bitwise; a value the method carries between steps and does not persist
 //! shows here as a difference.
 
-use mbdc_runtime::integrators::{self, Integrator, State};
+use mbdc_runtime::integrators::{self, State};
 use mbdc_runtime::interp::Interp;
 use mbdc_runtime::persist::{Loader, Saver};
 use mbdc_runtime::scene::{MethodSpec, Scene};
