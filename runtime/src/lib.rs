@@ -78,7 +78,7 @@ pub use analysis::{
     beam_model, coordinates, effects, input_limits, mesh_model, step_limits, tie_model, topology,
 };
 pub use contract::{math, mesh_layout, mesh_plan, persist, scene, system};
-pub use driver::{assemble, energy, output, run_loop};
+pub use driver::{assemble, checkpoint, energy, output, run_loop};
 pub use kernels::{beam_element, contact, fn1, forces, joints, solid, tree_joints};
 
 /// The linear-algebra crate of the runtime's types ([`system::Pose`] etc.), re-exported so

@@ -43,6 +43,8 @@ fn main() {
                         max_energy_growth: if on { 0.25 } else { f64::INFINITY },
                         ..Watchdog::for_scale(1.0, on)
                     },
+                    checkpoint: None,
+                    resume: None,
                 };
                 let t0 = Instant::now();
                 let r = run_loop::run(&sys, &cfg, &mut Quiet);

@@ -44,6 +44,8 @@ fn main() {
                     // the watchdog `mbdc run` gives the scene (the double pendulum and the
                     // chain have no work to book)
                     watchdog: Watchdog::for_scale(1.0, mbdc_runtime::app::energy_sources(&scene)),
+                    checkpoint: None,
+                    resume: None,
                 };
                 let t0 = Instant::now();
                 let r = run_loop::run(&sys, &cfg, &mut Quiet);

@@ -166,6 +166,8 @@ pub fn simulate(
         every,
         on_failure: OnFailure::Stop,
         watchdog: Watchdog::for_scale(run_loop::length_scale(&sys), true),
+        checkpoint: None,
+        resume: None,
     };
     let mut rec = Recorder(Vec::new());
     let report = run_loop::run(&sys, &cfg, &mut rec);
@@ -195,6 +197,8 @@ pub fn simulate_watched(
             run_loop::length_scale(&sys),
             mbdc_runtime::app::energy_sources(scene),
         ),
+        checkpoint: None,
+        resume: None,
     };
     let mut rec = Recorder(Vec::new());
     let report = run_loop::run(&sys, &cfg, &mut rec);

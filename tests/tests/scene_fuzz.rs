@@ -1191,6 +1191,8 @@ fn check_scene(scene: &Scene, key: Option<(u64, u64)>, run: bool) -> Result<(), 
             every: 1,
             on_failure: OnFailure::HalveStep(1),
             watchdog: Watchdog::for_scale(run_loop::length_scale(&sys), true),
+            checkpoint: None,
+            resume: None,
         };
         let report = bounded(method.name(), || run_loop::run(&sys, &cfg, &mut Quiet))?;
         prop_assert!(report.steps <= 8, "{} steps for a run of 3", report.steps);
@@ -1376,6 +1378,8 @@ fn a_large_scene_is_refused_by_dense_methods_and_run_by_sparse_ones() {
             every: 1,
             on_failure: OnFailure::Stop,
             watchdog: Watchdog::for_scale(run_loop::length_scale(&sys), false),
+            checkpoint: None,
+            resume: None,
         };
         let r = bounded(name, || run_loop::run(&sys, &cfg, &mut Quiet)).unwrap();
         assert!(r.finished, "{name}: {:?}", r.failure);
@@ -1458,6 +1462,8 @@ fn bad_steps_and_durations_are_refused() {
             every: 1,
             on_failure: OnFailure::HalveStep(3),
             watchdog: Watchdog::for_scale(1.0, false),
+            checkpoint: None,
+            resume: None,
         };
         let r = run_loop::run(&sys, &cfg, &mut Quiet);
         assert!(

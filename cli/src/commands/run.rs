@@ -89,6 +89,21 @@ pub struct Args {
     /// No progress bar and no summary (errors are still printed).
     #[arg(short, long)]
     pub quiet: bool,
+    /// Write a checkpoint (OUTDIR/checkpoints) at the first output frame at least N steps
+    /// after the last one.
+    #[arg(long, value_name = "N")]
+    pub checkpoint_every: Option<u64>,
+    /// Write a checkpoint at the first output frame at least this many seconds of wall time
+    /// after the last one.
+    #[arg(long, value_name = "SECONDS")]
+    pub checkpoint_seconds: Option<f64>,
+    /// Keep the newest K checkpoints (default 2).
+    #[arg(long, value_name = "K")]
+    pub keep_checkpoints: Option<usize>,
+    /// Continue the run in the output folder from its newest checkpoint, bit for bit as if it
+    /// had not stopped (same model, method, step and --every; a longer --duration extends it).
+    #[arg(long)]
+    pub restart: bool,
     /// At the end, write OUTDIR/view.html, the run's 3-D replay (`mbdc view`), and open it
     /// where a browser can be opened.
     #[arg(long)]
@@ -135,6 +150,10 @@ fn settings(args: &Args) -> Settings {
         duration: args.duration,
         every: args.every,
         halve_step: args.on_failure == FailurePolicy::HalveStep,
+        checkpoint_every: args.checkpoint_every,
+        checkpoint_seconds: args.checkpoint_seconds,
+        keep_checkpoints: args.keep_checkpoints,
+        restart: args.restart,
     }
 }
 
@@ -315,7 +334,7 @@ fn assemble(sys: &mut Interp, quiet: bool) -> Result<(), ExitCode> {
 /// Run a system and write the output folder, printing the summary; shared by the
 /// interpreter path and (through the generated program) the compiled path.
 pub fn simulate<S: System>(sys: &S, scene: &Scene, args: &Args) -> ExitCode {
-    let cfg = match config(sys, scene, args) {
+    let mut cfg = match config(sys, scene, args) {
         Ok(c) => c,
         Err(e) => {
             eprintln!("error: {e}");
@@ -326,6 +345,19 @@ pub fn simulate<S: System>(sys: &S, scene: &Scene, args: &Args) -> ExitCode {
         .out
         .clone()
         .unwrap_or_else(|| PathBuf::from("out").join(&scene.name));
+    match mbdc_runtime::app::checkpoints(sys, scene, &mut cfg, &settings(args), &dir) {
+        Ok(notes) => {
+            if !args.quiet {
+                for n in notes {
+                    eprintln!("{n}");
+                }
+            }
+        }
+        Err(e) => {
+            eprintln!("error: {e}");
+            return ExitCode::FAILURE;
+        }
+    }
     let meta = RunMeta {
         model: scene.name.clone(),
         method: cfg.method.name().into(),
@@ -530,6 +562,18 @@ pub fn run_compiled(scene: &Scene, args: &Args) -> ExitCode {
     }
     if args.assemble {
         cmd.arg("--assemble");
+    }
+    if let Some(n) = args.checkpoint_every {
+        cmd.arg("--checkpoint-every").arg(n.to_string());
+    }
+    if let Some(t) = args.checkpoint_seconds {
+        cmd.arg("--checkpoint-seconds").arg(t.to_string());
+    }
+    if let Some(k) = args.keep_checkpoints {
+        cmd.arg("--keep-checkpoints").arg(k.to_string());
+    }
+    if args.restart {
+        cmd.arg("--restart");
     }
     if args.quiet {
         cmd.arg("--quiet");

@@ -67,6 +67,8 @@ pub fn simulate<S: System>(sys: &S, scene: &Scene, duration: f64) -> Outcome {
             run_loop::length_scale(sys),
             mbdc_runtime::app::energy_sources(scene),
         ),
+        checkpoint: None,
+        resume: None,
     };
     let mut obs = Energy(Vec::new(), Vec::new());
     let report = run_loop::run(sys, &cfg, &mut obs);

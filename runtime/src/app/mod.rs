@@ -4,12 +4,15 @@
 //! ```text
 //! scene-program [--scene FILE.json] [--method NAME] [--step S] [--duration S] [--every N]
 //!               [--out DIR] [--on-failure stop|halve-step] [--assemble] [--progress] [--quiet]
+//!               [--checkpoint-every N] [--checkpoint-seconds S] [--keep-checkpoints K] [--restart]
 //! ```
 //!
 //! - `--scene`: the scene (JSON of a [`Scene`]) with the numbers to run; it must have the
 //!   structure the program was generated for. Default: the scene embedded at generation.
 //! - `--method`, `--step`, `--duration`, `--every`: as `mbdc run` ([`run_config`]).
 //! - `--out`: the output folder (default `out/<model name>`).
+//! - `--checkpoint-every`, `--checkpoint-seconds`, `--keep-checkpoints`, `--restart`:
+//!   checkpoints in `OUT/checkpoints` and continuing from the newest ([`checkpoints`]).
 //! - `--progress`: machine-readable progress on stderr for the `mbdc` command-line
 //!   program, one line each: `@mbdc progress <t>` and `@mbdc notice <text>` (newlines
 //!   escaped as `\n`); without it, notices are plain lines and a summary is printed at the end.
@@ -54,6 +57,84 @@ pub struct Settings {
     pub every: Option<u32>,
     /// Retry with half the step on failure (up to 10 times).
     pub halve_step: bool,
+    /// Write a checkpoint at the first output frame at least this many steps after the last.
+    pub checkpoint_every: Option<u64>,
+    /// Write a checkpoint at the first output frame at least this many seconds of wall time
+    /// after the last.
+    pub checkpoint_seconds: Option<f64>,
+    /// Keep the newest this many checkpoints (default 2).
+    pub keep_checkpoints: Option<usize>,
+    /// Continue the run in the output folder from its newest checkpoint.
+    pub restart: bool,
+}
+
+/// Set up checkpoints and restart in `cfg` from the user's settings: where checkpoints go
+/// (`DIR/checkpoints`) and when, and, with `restart`, the newest checkpoint of `dir` to
+/// continue from. Returns notes for the user (a newer checkpoint refused as damaged, where
+/// the run continues from).
+///
+/// # Errors
+/// An option out of range, no checkpoint to restart from, or a checkpoint of another run
+/// (the message names what differs: model, method, step, output interval, sizes, mbdc
+/// version or the scene's numbers).
+pub fn checkpoints<S: System>(
+    sys: &S,
+    scene: &Scene,
+    cfg: &mut RunConfig,
+    s: &Settings,
+    dir: &std::path::Path,
+) -> Result<Vec<String>, String> {
+    use crate::driver::checkpoint::{self, CheckpointSpec, Identity};
+    if s.checkpoint_every == Some(0) {
+        return Err("`--checkpoint-every` must be at least 1 step".into());
+    }
+    if let Some(t) = s.checkpoint_seconds {
+        if !(t.is_finite() && t > 0.0) {
+            return Err(format!(
+                "`--checkpoint-seconds` must be positive and finite, got {t}"
+            ));
+        }
+    }
+    let keep = s.keep_checkpoints.unwrap_or(2);
+    if keep == 0 {
+        return Err("`--keep-checkpoints` must be at least 1".into());
+    }
+    let identity = Identity::of(scene, sys.layout(), cfg.method.name(), cfg.step, cfg.every);
+    let folder = dir.join(checkpoint::FOLDER);
+    let mut notes = Vec::new();
+    if s.restart {
+        let (c, refused) = checkpoint::latest(&folder).map_err(|e| e.to_string())?;
+        for r in refused {
+            notes.push(format!("warning: {r}; continuing from an older checkpoint"));
+        }
+        if let Some(d) = c.identity.difference(&identity) {
+            return Err(format!(
+                "{} is a checkpoint of another run: {d}
+  help: restart with the model, method, step and --every it was written with",
+                c.path.display()
+            ));
+        }
+        notes.push(format!(
+            "restarting from {} (t = {} s, step {})",
+            c.path.display(),
+            c.time,
+            c.step
+        ));
+        cfg.resume = Some(run_loop::Resume {
+            output: c.output,
+            run: c.run,
+        });
+    }
+    if s.checkpoint_every.is_some() || s.checkpoint_seconds.is_some() {
+        cfg.checkpoint = Some(CheckpointSpec {
+            dir: folder,
+            every_steps: s.checkpoint_every,
+            every_seconds: s.checkpoint_seconds,
+            keep,
+            identity,
+        });
+    }
+    Ok(notes)
 }
 
 /// Whether a scene has forces or rows that do work the potential energy does not hold
@@ -93,6 +174,8 @@ pub fn run_config<S: System>(sys: &S, scene: &Scene, s: &Settings) -> Result<Run
             OnFailure::Stop
         },
         watchdog: Watchdog::for_scale(run_loop::length_scale(sys), energy_sources(scene)),
+        checkpoint: None,
+        resume: None,
     })
 }
 
@@ -164,6 +247,24 @@ impl Args {
                         ))
                     }
                 },
+                "--checkpoint-every" => {
+                    let v = value("a step count")?;
+                    a.settings.checkpoint_every =
+                        Some(v.parse().map_err(|_| {
+                            format!("`--checkpoint-every`: `{v}` is not a step count")
+                        })?);
+                }
+                "--checkpoint-seconds" => {
+                    a.settings.checkpoint_seconds = Some(num(value("seconds")?, "seconds")?)
+                }
+                "--keep-checkpoints" => {
+                    let v = value("a count")?;
+                    a.settings.keep_checkpoints = Some(
+                        v.parse()
+                            .map_err(|_| format!("`--keep-checkpoints`: `{v}` is not a count"))?,
+                    );
+                }
+                "--restart" => a.settings.restart = true,
                 "--assemble" => a.assemble = true,
                 "--progress" => a.progress = true,
                 "--quiet" | "-q" => a.quiet = true,
@@ -253,7 +354,7 @@ pub fn run_with<M: CompiledModel>(args: &Args) -> ExitCode {
             Err(e) => return fail(format!("{e}\n  help: check the joints' points and axes; `mbdc check` lists each joint's violation at t = 0")),
         }
     }
-    let cfg = match run_config(&sys, &scene, &args.settings) {
+    let mut cfg = match run_config(&sys, &scene, &args.settings) {
         Ok(c) => c,
         Err(e) => return fail(e),
     };
@@ -261,6 +362,21 @@ pub fn run_with<M: CompiledModel>(args: &Args) -> ExitCode {
         .out
         .clone()
         .unwrap_or_else(|| PathBuf::from("out").join(&scene.name));
+    match checkpoints(&sys, &scene, &mut cfg, &args.settings, &dir) {
+        Ok(notes) => {
+            for n in notes {
+                if args.progress {
+                    eprintln!(
+                        "{PROTOCOL}notice {}",
+                        n.replace('\\', "\\\\").replace('\n', "\\n")
+                    );
+                } else if !args.quiet {
+                    eprintln!("{n}");
+                }
+            }
+        }
+        Err(e) => return fail(e),
+    }
     let meta = RunMeta {
         model: scene.name.clone(),
         method: cfg.method.name().into(),

@@ -7,11 +7,14 @@
 //!   velocity constraints).
 //! - [`energy`]: kinetic energy and momenta of a state.
 //! - [`work`]: the work of non-conservative forces and drivers, for the energy balance.
+//! - [`checkpoint`]: checkpoint files (identity, atomic write, CRC) for bit-identical
+//!   restart.
 //!
 //! Imports every floor below (contract, kernels, linalg, analysis, integrators); knows
 //! neither the interpreter nor generated code: it drives any `System`.
 
 pub mod assemble;
+pub mod checkpoint;
 pub mod energy;
 pub mod output;
 pub mod run_loop;

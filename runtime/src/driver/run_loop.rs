@@ -40,6 +40,7 @@
 //! button, a deadline), as long as the answer is cheap — an atomic load — and allocates
 //! nothing, since it is asked once per step.
 
+use crate::contract::persist::{self, StateVisitor};
 use crate::contract::scene::MethodSpec;
 use crate::contract::system::{ConstraintEval, Layout, Need, RowKind, System};
 use crate::driver::energy;
@@ -104,6 +105,20 @@ pub struct RunConfig {
     pub on_failure: OnFailure,
     /// Thresholds.
     pub watchdog: Watchdog,
+    /// Write checkpoints (`None`: never).
+    pub checkpoint: Option<crate::driver::checkpoint::CheckpointSpec>,
+    /// Continue from a checkpoint's state instead of the start (`mbdc run --restart`).
+    pub resume: Option<Resume>,
+}
+
+/// A checkpoint's state to continue from: its two parts
+/// ([`crate::driver::checkpoint::Checkpoint`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Resume {
+    /// The writers' position ([`crate::driver::output::OutputPosition`], persisted).
+    pub output: Vec<u8>,
+    /// The run's state: the run loop's, the method's and the watches'.
+    pub run: Vec<u8>,
 }
 
 /// Everything about one output frame. The slices borrow the driver's buffers.
@@ -151,6 +166,16 @@ pub trait Observer {
     /// must be cheap (an atomic load) and must not allocate. Default: never.
     fn stop_requested(&mut self) -> Option<&'static str> {
         None
+    }
+    /// For a checkpoint, at an output frame: make everything handed out so far durable and
+    /// save where the output stands (the files' lengths, what the writer measured), so that
+    /// a restart continues the same files. Default: there is nothing to save.
+    ///
+    /// # Errors
+    /// Why the output cannot be made durable (a write error, with the path).
+    fn save_output(&mut self, v: &mut dyn StateVisitor) -> Result<(), String> {
+        let _ = v;
+        Ok(())
     }
 }
 
@@ -313,6 +338,44 @@ struct EnergyWatch {
 }
 
 impl EnergyWatch {
+    /// Save or load (for a checkpoint) everything the watch carries, its work watch included.
+    fn persist(&mut self, v: &mut dyn StateVisitor) {
+        let mut x = [
+            self.e0,
+            self.in_play,
+            self.pe_lo,
+            self.pe_hi,
+            self.kinetic,
+            self.potential,
+            self.max_change,
+            self.floor,
+            self.impacts,
+            self.error,
+            self.saved.0,
+            self.saved.1,
+        ];
+        v.f64s("energy_watch", &mut x);
+        [
+            self.e0,
+            self.in_play,
+            self.pe_lo,
+            self.pe_hi,
+            self.kinetic,
+            self.potential,
+            self.max_change,
+            self.floor,
+            self.impacts,
+            self.error,
+            self.saved.0,
+            self.saved.1,
+        ] = x;
+        persist::bool(v, "energy_watch.loss_checked", &mut self.loss_checked);
+        let mut g = u64::from(self.kink_grace);
+        persist::u64(v, "energy_watch.kink_grace", &mut g);
+        self.kink_grace = g as u8;
+        self.work.persist(v);
+    }
+
     fn new<S: System>(
         sys: &S,
         st: &State,
@@ -461,6 +524,101 @@ pub fn length_scale<S: System>(sys: &S) -> f64 {
     st.pose.iter().fold(1.0f64, |a, p| a.max(p.r.norm()))
 }
 
+/// The run loop's own state at an output frame, saved into (or loaded from) a checkpoint:
+/// the step size, the report's counters and maxima, the state of the frame, the locks'
+/// bookkeeping, and where the current attempt started and stands.
+#[allow(clippy::too_many_arguments)]
+fn persist_loop(
+    v: &mut dyn StateVisitor,
+    layout: &Layout,
+    h: &mut f64,
+    report: &mut RunReport,
+    start: &mut State,
+    prev_active: &mut [bool],
+    grace: &mut [u8],
+    impact_left: &mut u8,
+    t_attempt: &mut f64,
+    k: &mut u64,
+) {
+    let joint = |name: &str| {
+        layout
+            .joints
+            .iter()
+            .position(|j| j.name == name)
+            .map_or(u64::MAX, |i| i as u64)
+    };
+    let name = |i: u64| {
+        layout
+            .joints
+            .get(i as usize)
+            .map_or_else(String::new, |j| j.name.clone())
+    };
+    persist::f64(v, "run.h", h);
+    persist::u64(v, "run.steps", &mut report.steps);
+    persist::f64(v, "run.t_end", &mut report.t_end);
+    persist::u32(v, "run.retries", &mut report.retries);
+    let mut x = [
+        report.max_violation.0,
+        report.max_relative_violation.0,
+        report.max_relative_violation.2,
+        report.max_energy_drift,
+    ];
+    v.f64s("run.maxima", &mut x);
+    [
+        report.max_violation.0,
+        report.max_relative_violation.0,
+        report.max_relative_violation.2,
+        report.max_energy_drift,
+    ] = x;
+    let mut j = [
+        joint(&report.max_violation.1),
+        joint(&report.max_relative_violation.1),
+    ];
+    v.u64s("run.maxima_joints", &mut j);
+    report.max_violation.1 = name(j[0]);
+    report.max_relative_violation.1 = name(j[1]);
+    persist::f64(v, "run.t", &mut start.t);
+    persist::poses(v, "run.pose", &mut start.pose);
+    persist::twists(v, "run.twist", &mut start.twist);
+    v.f64s("run.lambda", &mut start.lambda);
+    v.bools("run.active", &mut start.active);
+    v.bools("run.prev_active", prev_active);
+    let mut g: Vec<u64> = grace.iter().map(|&g| u64::from(g)).collect();
+    v.u64s("run.grace", &mut g);
+    for (d, s) in grace.iter_mut().zip(&g) {
+        *d = *s as u8;
+    }
+    let mut i = u64::from(*impact_left);
+    persist::u64(v, "run.impact_left", &mut i);
+    *impact_left = i as u8;
+    persist::f64(v, "run.t_attempt", t_attempt);
+    persist::u64(v, "run.k", k);
+}
+
+/// When the next checkpoint is due.
+struct CheckpointClock<'a> {
+    spec: &'a crate::driver::checkpoint::CheckpointSpec,
+    last_step: u64,
+    last_wall: std::time::Instant,
+    /// Checkpoints stopped (the method cannot persist, or the output cannot be synced): said
+    /// once.
+    off: bool,
+}
+
+impl CheckpointClock<'_> {
+    fn due(&self, steps: u64) -> bool {
+        !self.off
+            && (self
+                .spec
+                .every_steps
+                .is_some_and(|n| steps >= self.last_step + n.max(1))
+                || self
+                    .spec
+                    .every_seconds
+                    .is_some_and(|s| self.last_wall.elapsed().as_secs_f64() >= s))
+    }
+}
+
 /// Run `sys` from its initial state.
 ///
 /// A step that is not positive and finite, a duration that is not finite and ≥ 0, or more
@@ -529,11 +687,43 @@ pub fn run<S: System>(sys: &S, cfg: &RunConfig, obs: &mut dyn Observer) -> RunRe
     let mut initial_frame = true;
     // steps left in which the balance's change is a lock's impact (see IMPACT_STEPS); set
     // at the start of each attempt
-    let mut impact_left: u8;
+    let mut impact_left: u8 = 0;
+    // a restart: the loop's state from the checkpoint; the method's and the watches' are
+    // read once the method is made, from the same bytes
+    let mut loader = cfg.resume.as_ref().map(|r| persist::Loader::new(&r.run));
+    // where the current attempt started, and the steps it has taken (a restart continues
+    // both)
+    let mut t_attempt = 0.0;
+    let mut k_done = 0u64;
+    if let Some(l) = &mut loader {
+        persist_loop(
+            l,
+            layout,
+            &mut h,
+            &mut report,
+            &mut start,
+            &mut prev_active,
+            &mut grace,
+            &mut impact_left,
+            &mut t_attempt,
+            &mut k_done,
+        );
+        initial_frame = false;
+    }
+    let mut clock = cfg.checkpoint.as_ref().map(|spec| CheckpointClock {
+        spec,
+        last_step: report.steps,
+        last_wall: std::time::Instant::now(),
+        off: false,
+    });
     'attempt: loop {
-        prev_active.copy_from_slice(&start.active);
-        grace.iter_mut().for_each(|g| *g = 0);
-        impact_left = 0;
+        if loader.is_none() {
+            prev_active.copy_from_slice(&start.active);
+            grace.iter_mut().for_each(|g| *g = 0);
+            impact_left = 0;
+            t_attempt = start.t;
+            k_done = 0;
+        }
         let made = integrators::make(&cfg.method, sys, h, &start);
         if initial_frame {
             initial_frame = false;
@@ -566,8 +756,38 @@ pub fn run<S: System>(sys: &S, cfg: &RunConfig, obs: &mut dyn Observer) -> RunRe
                 break;
             }
         };
-        let n_total = step_count(cfg.duration - start.t, h);
-        for k in 1..=n_total {
+        if let Some(mut l) = loader.take() {
+            // the method's and the watches' state from the checkpoint, then the frame's
+            // state as the method gives it (beams and meshes included)
+            let persisted = integ.persist(&mut l);
+            ew.persist(&mut l);
+            let loaded = if persisted {
+                l.finish().map_err(|e| e.to_string())
+            } else {
+                Err(format!(
+                    "method {} cannot continue from a checkpoint",
+                    cfg.method.name()
+                ))
+            };
+            if let Err(cause) = loaded {
+                report.failure = Some(Failure {
+                    time: start.t,
+                    step: report.steps,
+                    location: "the checkpoint".into(),
+                    quantity: "restart".into(),
+                    value: f64::NAN,
+                    cause,
+                    hint: Some("restart with the scene, method and options the checkpoint was written with, or run from the start".into()),
+                });
+                break;
+            }
+            integ.state(sys, &mut st);
+            st.active.copy_from_slice(integ.active());
+            start.clone_from(&st);
+            ew.save();
+        }
+        let n_total = step_count(cfg.duration - t_attempt, h);
+        for k in k_done + 1..=n_total {
             let result = integ.step(sys);
             report.steps += 1;
             // the time reached, also when this step is the one that fails
@@ -602,6 +822,64 @@ pub fn run<S: System>(sys: &S, cfg: &RunConfig, obs: &mut dyn Observer) -> RunRe
                         emit(sys, &st, report.steps, &mut probe, obs, &ew);
                         start.clone_from(&st);
                         ew.save();
+                        if let Some(c) = clock.as_mut().filter(|c| c.due(report.steps)) {
+                            let mut k_now = k;
+                            let mut out = persist::Saver::new();
+                            let mut run = persist::Saver::new();
+                            let synced = obs.save_output(&mut out);
+                            persist_loop(
+                                &mut run,
+                                layout,
+                                &mut h,
+                                &mut report,
+                                &mut start,
+                                &mut prev_active,
+                                &mut grace,
+                                &mut impact_left,
+                                &mut t_attempt,
+                                &mut k_now,
+                            );
+                            let persisted = integ.persist(&mut run);
+                            ew.persist(&mut run);
+                            c.last_step = report.steps;
+                            c.last_wall = std::time::Instant::now();
+                            if !persisted {
+                                c.off = true;
+                                obs.notice(&format!("warning: method {} cannot write checkpoints yet: this run writes none (the staggered family can: staggered, baumgarte, penalty)", cfg.method.name()));
+                            } else if let Err(e) = synced {
+                                c.off = true;
+                                obs.notice(&format!(
+                                    "warning: no more checkpoints: the output is not durable: {e}"
+                                ));
+                            } else {
+                                let bytes = crate::driver::checkpoint::encode(
+                                    &c.spec.identity,
+                                    report.steps,
+                                    st.t,
+                                    &out.into_bytes(),
+                                    &run.into_bytes(),
+                                );
+                                if let Err(e) = crate::driver::checkpoint::write(
+                                    &c.spec.dir,
+                                    report.steps,
+                                    &bytes,
+                                    c.spec.keep,
+                                ) {
+                                    // a full disk or an unwritable folder: stop here, with
+                                    // the checkpoints written before
+                                    report.failure = Some(Failure {
+                                        time: st.t,
+                                        step: report.steps,
+                                        location: "the checkpoint folder".into(),
+                                        quantity: "checkpoint".into(),
+                                        value: f64::NAN,
+                                        cause: e.to_string(),
+                                        hint: Some(format!("free space or make {} writable, then continue with --restart from the last checkpoint", c.spec.dir.display())),
+                                    });
+                                    break 'attempt;
+                                }
+                            }
+                        }
                     }
                     None
                 }
@@ -1157,6 +1435,14 @@ impl Observer for ToWriter<'_> {
     fn stop_requested(&mut self) -> Option<&'static str> {
         self.inner.stop_requested()
     }
+    fn save_output(&mut self, v: &mut dyn StateVisitor) -> Result<(), String> {
+        if let Some(e) = &self.error {
+            return Err(e.to_string());
+        }
+        let mut at = self.writer.sync().map_err(|e| e.to_string())?;
+        at.persist(v);
+        Ok(())
+    }
 }
 
 /// Run `sys` and write its output folder (`bodies.csv`, `energy.csv`, `constraints.csv` as
@@ -1173,8 +1459,21 @@ pub fn run_to_dir<S: System>(
     dir: &std::path::Path,
     progress: &mut dyn Observer,
 ) -> Result<(RunReport, crate::driver::output::Summary), crate::driver::output::OutputError> {
-    let writer =
-        crate::driver::output::OutputWriter::create(dir, sys.layout(), spec, meta.clone())?;
+    let writer = match &cfg.resume {
+        None => crate::driver::output::OutputWriter::create(dir, sys.layout(), spec, meta.clone())?,
+        Some(r) => {
+            // the files as they were at the checkpoint
+            let mut at = crate::driver::output::OutputPosition::default();
+            let mut l = persist::Loader::new(&r.output);
+            at.persist(&mut l);
+            l.finish()
+                .map_err(|e| crate::driver::output::OutputError::Json {
+                    path: dir.join(crate::driver::checkpoint::FOLDER),
+                    message: format!("the checkpoint's output position: {e}"),
+                })?;
+            crate::driver::output::OutputWriter::resume(dir, sys.layout(), spec, meta.clone(), &at)?
+        }
+    };
     let mut first_element = vec![false; sys.layout().beams.elements.len()];
     for b in &sys.layout().beams.beams {
         first_element[b.first_element] = true;
@@ -1283,6 +1582,8 @@ mod tests {
             every: 10,
             on_failure: OnFailure::Stop,
             watchdog: Watchdog::for_scale(1.0, false),
+            checkpoint: None,
+            resume: None,
         };
         let mut obs = Count(0, vec![]);
         let r = run(&sys, &cfg, &mut obs);
@@ -1312,6 +1613,8 @@ mod tests {
                 every,
                 on_failure: OnFailure::Stop,
                 watchdog: Watchdog::for_scale(1.0, false),
+                checkpoint: None,
+                resume: None,
             };
             let mut obs = Count(0, vec![]);
             let r = run(&sys, &cfg, &mut obs);
@@ -1367,6 +1670,8 @@ mod tests {
                 every: 100,
                 on_failure: OnFailure::Stop,
                 watchdog: Watchdog::for_scale(1.0, false),
+                checkpoint: None,
+                resume: None,
             };
             let mut obs = Count(0, vec![]);
             let r = run(&sys, &cfg, &mut obs);
@@ -1421,6 +1726,8 @@ mod tests {
             every,
             on_failure: OnFailure::Stop,
             watchdog: Watchdog::for_scale(1.0, false),
+            checkpoint: None,
+            resume: None,
         }
     }
 
@@ -1576,6 +1883,8 @@ mod tests {
             every: 10,
             on_failure: OnFailure::Stop,
             watchdog: Watchdog::for_scale(1.0, false),
+            checkpoint: None,
+            resume: None,
         };
         let mut obs = Count(0, vec![]);
         let r = run(&sys, &cfg, &mut obs);

@@ -41,6 +41,7 @@
 //! the energy in play so that the first steps of a loading are not judged by it.
 
 use crate::contract::math::qmul;
+use crate::contract::persist::{self, StateVisitor};
 use crate::contract::system::{ConstraintEval, Layout, Need, Pose, System, Twist, Wrench};
 use crate::integrators::State;
 use nalgebra::Quaternion;
@@ -105,6 +106,47 @@ struct Saved {
 }
 
 impl WorkWatch {
+    /// Save or load (for a checkpoint) what the watch carries from step to step: the work
+    /// booked, the last state's powers and drivers' rates, and the copy kept for a retry.
+    pub fn persist(&mut self, v: &mut dyn StateVisitor) {
+        persist::bool(v, "work.on", &mut self.on);
+        persist::wrenches(v, "work.applied", &mut self.applied);
+        persist::poses(v, "work.shifted", &mut self.shifted);
+        persist::constraint_eval(v, &mut self.ce);
+        persist::vec_usize(v, "work.timed", &mut self.timed);
+        persist::f64(v, "work.t", &mut self.t);
+        persist::f64(v, "work.power", &mut self.power);
+        persist::vec_f64(v, "work.row_power", &mut self.row_power);
+        persist::vec_f64(v, "work.b_last", &mut self.b_last);
+        persist::vec_f64(v, "work.db_last", &mut self.db_last);
+        let mut seen = u64::from(self.seen);
+        persist::u64(v, "work.seen", &mut seen);
+        self.seen = seen as u8;
+        persist::bool(v, "work.first", &mut self.first);
+        for b in [&mut self.now, &mut self.saved.booked] {
+            let mut x = [
+                b.forces,
+                b.drivers,
+                b.max_forces,
+                b.max_drivers,
+                b.allowance,
+            ];
+            v.f64s("work.booked", &mut x);
+            [
+                b.forces,
+                b.drivers,
+                b.max_forces,
+                b.max_drivers,
+                b.allowance,
+            ] = x;
+        }
+        persist::f64(v, "work.saved.t", &mut self.saved.t);
+        persist::f64(v, "work.saved.power", &mut self.saved.power);
+        persist::vec_f64(v, "work.saved.row_power", &mut self.saved.row_power);
+        persist::vec_f64(v, "work.saved.b_last", &mut self.saved.b_last);
+        persist::bool(v, "work.saved.first", &mut self.saved.first);
+    }
+
     /// A watch that books nothing: for scenes whose forces are all conservative and that
     /// have no drivers.
     pub fn off() -> WorkWatch {

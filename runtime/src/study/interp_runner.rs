@@ -79,6 +79,8 @@ impl InterpRunner {
             every: every.max(1),
             on_failure: OnFailure::Stop,
             watchdog: self.watchdog,
+            checkpoint: None,
+            resume: None,
         };
         guarded(|| run_loop::run(&self.sys, &cfg, obs)).unwrap_or_else(|msg| RunReport {
             steps: 0,

@@ -64,6 +64,8 @@ pub fn config<S: System>(sys: &S, scene: &Scene, method: &MethodSpec, steps: u32
             run_loop::length_scale(sys),
             mbdc_runtime::app::energy_sources(scene),
         ),
+        checkpoint: None,
+        resume: None,
     }
 }
 

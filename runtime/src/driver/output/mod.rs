@@ -73,6 +73,7 @@ mod vtu;
 
 pub use scene_file::{read_scene, write_scene, SCENE_FILE};
 pub use size_estimate::{estimate, OutputEstimate};
+
 pub use vtu::{von_mises, MESH_ENERGY_COLUMNS};
 
 use std::collections::BTreeMap;
@@ -88,6 +89,7 @@ use std::thread::JoinHandle;
 
 use serde::{Deserialize, Serialize};
 
+use crate::contract::persist::{self, StateVisitor};
 use crate::contract::scene::OutputSpec;
 use crate::contract::system::{Layout, Pose, RowKind, Twist};
 
@@ -552,6 +554,40 @@ struct CsvFile {
 }
 
 impl CsvFile {
+    /// Open `path` (written by an earlier part of this run) to continue after its first
+    /// `len` bytes, cutting what a killed run wrote after them.
+    fn reopen(path: PathBuf, len: u64) -> Result<CsvFile, OutputError> {
+        let mut file = std::fs::OpenOptions::new()
+            .read(true)
+            .write(true)
+            .open(&path)
+            .map_err(|e| OutputError::io(OutputErrorKind::Create, &path, e))?;
+        let on_disk = file
+            .metadata()
+            .map_err(|e| OutputError::io(OutputErrorKind::Read, &path, e))?
+            .len();
+        if on_disk < len {
+            return Err(OutputError::io(
+                OutputErrorKind::Read,
+                &path,
+                std::io::Error::other(format!(
+                    "it has {on_disk} bytes, fewer than the {len} it had at the checkpoint"
+                )),
+            ));
+        }
+        file.set_len(len)
+            .and_then(|()| std::io::Seek::seek(&mut file, std::io::SeekFrom::End(0)).map(drop))
+            .map_err(|e| OutputError::io(OutputErrorKind::Write, &path, e))?;
+        Ok(CsvFile {
+            path,
+            file,
+            buf: String::with_capacity(1 << 16),
+            written: len,
+            #[cfg(test)]
+            limit: Arc::new(std::sync::atomic::AtomicU64::new(u64::MAX)),
+        })
+    }
+
     fn create(path: PathBuf, header: &str) -> Result<CsvFile, OutputError> {
         let mut file =
             File::create(&path).map_err(|e| OutputError::io(OutputErrorKind::Create, &path, e))?;
@@ -632,6 +668,36 @@ struct Stats {
 }
 
 impl Stats {
+    fn persist(&mut self, v: &mut dyn StateVisitor) {
+        persist::u64(v, "out.frames", &mut self.frames);
+        let mut e0 = [
+            f64::from(u8::from(self.e0.is_some())),
+            self.e0.unwrap_or(0.0),
+        ];
+        v.f64s("out.e0", &mut e0);
+        self.e0 = (e0[0] != 0.0).then_some(e0[1]);
+        let mut x = [
+            self.k_max,
+            self.v_min,
+            self.v_max,
+            self.w_max,
+            self.max_drift,
+            self.max_violation,
+        ];
+        v.f64s("out.maxima", &mut x);
+        [
+            self.k_max,
+            self.v_min,
+            self.v_max,
+            self.w_max,
+            self.max_drift,
+            self.max_violation,
+        ] = x;
+        let mut j = self.max_violation_joint.map_or(u64::MAX, |j| j as u64);
+        persist::u64(v, "out.max_violation_joint", &mut j);
+        self.max_violation_joint = (j != u64::MAX).then_some(j as usize);
+    }
+
     /// Update with a frame; returns its drift.
     fn add(&mut self, f: &Frame) -> f64 {
         let e = f.kinetic + f.potential - f.work;
@@ -666,6 +732,45 @@ impl Stats {
         }
         drift
     }
+}
+
+/// Where the writers are after the frames written so far: what a checkpoint records so that
+/// a restarted run continues the same files ([`OutputWriter::sync`], [`OutputWriter::resume`]).
+#[derive(Clone, Debug, Default)]
+pub struct OutputPosition {
+    /// Bytes of `bodies.csv`, `energy.csv`, `constraints.csv`, `beams.csv`,
+    /// `mesh_energy.csv` (0 where the file is not written).
+    lens: [u64; 5],
+    /// Frames of the beams' and the meshes' series.
+    vtk_frames: u64,
+    vtu_frames: u64,
+    /// What the writer measured over the frames (the summary's maxima).
+    stats: Stats,
+}
+
+impl OutputPosition {
+    /// Save or load it.
+    pub fn persist(&mut self, v: &mut dyn StateVisitor) {
+        v.u64s("out.lens", &mut self.lens);
+        persist::u64(v, "out.vtk_frames", &mut self.vtk_frames);
+        persist::u64(v, "out.vtu_frames", &mut self.vtu_frames);
+        self.stats.persist(v);
+    }
+
+    /// Frames written.
+    pub fn frames(&self) -> u64 {
+        self.stats.frames
+    }
+}
+
+/// What the simulation thread sends the writer thread. (A frame is moved, not boxed: the
+/// pool recycles its buffers, and a box would allocate per frame.)
+#[allow(clippy::large_enum_variant)]
+enum Msg {
+    /// A frame to write.
+    Frame(Frame),
+    /// Write everything queued, then answer with the position.
+    Sync,
 }
 
 /// The writer thread's state.
@@ -768,13 +873,42 @@ impl Worker {
         }
     }
 
-    fn run(mut self, rx: Receiver<Frame>, pool: FrameReturn) -> Stats {
-        while let Ok(first) = rx.recv() {
-            self.write(&first);
-            pool.give(first);
-            while let Ok(f) = rx.try_recv() {
-                self.write(&f);
+    fn position(&self) -> OutputPosition {
+        let len = |c: &Option<CsvFile>| c.as_ref().map_or(0, |c| c.written);
+        OutputPosition {
+            lens: [
+                len(&self.bodies),
+                len(&self.energy),
+                len(&self.constraints),
+                len(&self.beams),
+                len(&self.mesh_energy),
+            ],
+            vtk_frames: self.vtk.as_ref().map_or(0, |v| v.frames()),
+            vtu_frames: self.vtu.as_ref().map_or(0, |v| v.frames()),
+            stats: self.stats.clone(),
+        }
+    }
+
+    fn run(
+        mut self,
+        rx: Receiver<Msg>,
+        pool: FrameReturn,
+        synced: SyncSender<OutputPosition>,
+    ) -> Stats {
+        let handle = |w: &mut Worker, m: Msg| match m {
+            Msg::Frame(f) => {
+                w.write(&f);
                 pool.give(f);
+            }
+            Msg::Sync => {
+                w.flush();
+                let _ = synced.send(w.position());
+            }
+        };
+        while let Ok(first) = rx.recv() {
+            handle(&mut self, first);
+            while let Ok(m) = rx.try_recv() {
+                handle(&mut self, m);
             }
             self.flush();
         }
@@ -790,7 +924,9 @@ pub struct OutputWriter {
     meta: RunMeta,
     joint_names: Vec<String>,
     layout_for_fallback: Layout,
-    tx: Option<SyncSender<Frame>>,
+    tx: Option<SyncSender<Msg>>,
+    /// The writer thread's answers to [`Msg::Sync`].
+    synced: Receiver<OutputPosition>,
     pool: FramePool,
     failed: Arc<AtomicBool>,
     error: Arc<Mutex<Option<OutputError>>>,
@@ -823,38 +959,76 @@ impl OutputWriter {
         spec: &OutputSpec,
         meta: RunMeta,
     ) -> Result<OutputWriter, OutputError> {
+        Self::open(dir, layout, spec, meta, None)
+    }
+
+    /// Continue the files of a run from the position a checkpoint recorded
+    /// ([`OutputWriter::sync`]): each file is cut back to its length then (what a killed
+    /// run wrote after the checkpoint goes), the series' indexes to their frames then, and
+    /// the writer's statistics are the checkpoint's. `summary.json` says `"started"` again
+    /// until the run ends.
+    ///
+    /// # Errors
+    /// [`OutputError::Io`] with the path when a file is missing, shorter than at the
+    /// checkpoint, or cannot be written.
+    pub fn resume(
+        dir: &Path,
+        layout: &Layout,
+        spec: &OutputSpec,
+        meta: RunMeta,
+        at: &OutputPosition,
+    ) -> Result<OutputWriter, OutputError> {
+        Self::open(dir, layout, spec, meta, Some(at))
+    }
+
+    fn open(
+        dir: &Path,
+        layout: &Layout,
+        spec: &OutputSpec,
+        meta: RunMeta,
+        at: Option<&OutputPosition>,
+    ) -> Result<OutputWriter, OutputError> {
         std::fs::create_dir_all(dir)
             .map_err(|e| OutputError::io(OutputErrorKind::CreateDir, dir, e))?;
-        let bodies = spec
-            .bodies
-            .then(|| CsvFile::create(dir.join("bodies.csv"), &bodies_header(layout)))
-            .transpose()?;
-        let energy = spec
-            .energy
-            .then(|| CsvFile::create(dir.join("energy.csv"), &energy_header()))
-            .transpose()?;
-        let constraints = spec
-            .constraints
-            .then(|| CsvFile::create(dir.join("constraints.csv"), &constraints_header(layout)))
-            .transpose()?;
-        let beams = (!layout.beams.is_empty())
-            .then(|| CsvFile::create(dir.join("beams.csv"), &beams_header()))
-            .transpose()?;
+        let csv_file = |want: bool, name: &str, k: usize, header: &dyn Fn() -> String| {
+            want.then(|| match at {
+                Some(p) => CsvFile::reopen(dir.join(name), p.lens[k]),
+                None => CsvFile::create(dir.join(name), &header()),
+            })
+            .transpose()
+        };
+        let bodies = csv_file(spec.bodies, "bodies.csv", 0, &|| bodies_header(layout))?;
+        let energy = csv_file(spec.energy, "energy.csv", 1, &energy_header)?;
+        let constraints = csv_file(spec.constraints, "constraints.csv", 2, &|| {
+            constraints_header(layout)
+        })?;
+        let beams = csv_file(!layout.beams.is_empty(), "beams.csv", 3, &beams_header)?;
         let vtk = (!layout.beams.is_empty())
-            .then(|| vtk::BeamSeries::create(dir))
+            .then(|| match at {
+                Some(p) => vtk::BeamSeries::resume(dir, p.vtk_frames),
+                None => vtk::BeamSeries::create(dir),
+            })
             .transpose()?;
-        let mesh_energy = (!layout.meshes.is_empty())
-            .then(|| CsvFile::create(dir.join("mesh_energy.csv"), &csv::mesh_energy_header()))
-            .transpose()?;
+        let mesh_energy = csv_file(
+            !layout.meshes.is_empty(),
+            "mesh_energy.csv",
+            4,
+            &csv::mesh_energy_header,
+        )?;
         let vtu = (!layout.meshes.is_empty())
-            .then(|| vtu::MeshSeries::create(dir, layout))
+            .then(|| match at {
+                Some(p) => vtu::MeshSeries::resume(dir, layout, p.vtu_frames),
+                None => vtu::MeshSeries::create(dir, layout),
+            })
             .transpose()?;
         write_summary(dir, &Summary::started(&meta))?;
 
         let pool_size = (POOL_BYTES / Frame::bytes(layout)).clamp(2, POOL_MAX);
         // The queue holds every frame there is, so `submit` never waits (a waiting send
         // would allocate its wait context); `frame` waits on the pool's futex instead.
-        let (tx, rx) = sync_channel::<Frame>(pool_size);
+        // (one more for a sync request)
+        let (tx, rx) = sync_channel::<Msg>(pool_size + 1);
+        let (synced_tx, synced) = sync_channel::<OutputPosition>(1);
         let (pool, pool_return) =
             FramePool::new((0..pool_size).map(|_| Frame::new(layout)).collect());
         let failed = Arc::new(AtomicBool::new(false));
@@ -881,13 +1055,13 @@ impl OutputWriter {
             vtk,
             mesh_energy,
             vtu,
-            stats: Stats::default(),
+            stats: at.map_or_else(Stats::default, |p| p.stats.clone()),
             failed: failed.clone(),
             error: error.clone(),
         };
         let handle = std::thread::Builder::new()
             .name("mbdc-output".into())
-            .spawn(move || worker.run(rx, pool_return))
+            .spawn(move || worker.run(rx, pool_return, synced_tx))
             .map_err(|e| OutputError::io(OutputErrorKind::Create, dir, e))?;
         Ok(OutputWriter {
             dir: dir.to_path_buf(),
@@ -895,6 +1069,7 @@ impl OutputWriter {
             joint_names: layout.joints.iter().map(|j| j.name.clone()).collect(),
             layout_for_fallback: layout.clone(),
             tx: Some(tx),
+            synced,
             pool,
             failed,
             error,
@@ -949,11 +1124,31 @@ impl OutputWriter {
             return Err(self.current_error());
         }
         match &self.tx {
-            Some(tx) => tx.send(frame).map_err(|_| self.current_error()),
+            Some(tx) => tx.send(Msg::Frame(frame)).map_err(|_| self.current_error()),
             None => Err(OutputError::Thread {
                 dir: self.dir.clone(),
             }),
         }
+    }
+
+    /// Wait until every frame submitted so far is written and flushed, and return where
+    /// the files are (for a checkpoint).
+    ///
+    /// # Errors
+    /// The first write error of the writer thread.
+    pub fn sync(&mut self) -> Result<OutputPosition, OutputError> {
+        if self.failed.load(Ordering::Acquire) {
+            return Err(self.current_error());
+        }
+        let sent = match &self.tx {
+            Some(tx) => tx.send(Msg::Sync).is_ok(),
+            None => false,
+        };
+        let pos = if sent { self.synced.recv().ok() } else { None };
+        if self.failed.load(Ordering::Acquire) {
+            return Err(self.current_error());
+        }
+        pos.ok_or_else(|| self.current_error())
     }
 
     fn current_error(&self) -> OutputError {

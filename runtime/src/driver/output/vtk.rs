@@ -46,6 +46,58 @@ impl PvdSeries {
         Ok(s)
     }
 
+    /// Continue the series in `OUTDIR/STEM/` after its first `frames` frames (a restart):
+    /// the index keeps the entries of those frames; later files are overwritten as the run
+    /// writes them again.
+    pub(crate) fn resume(
+        outdir: &Path,
+        stem: &'static str,
+        frames: u64,
+    ) -> Result<PvdSeries, OutputError> {
+        let dir = outdir.join(stem);
+        std::fs::create_dir_all(&dir)
+            .map_err(|e| OutputError::io(OutputErrorKind::CreateDir, &dir, e))?;
+        let pvd = outdir.join(format!("{stem}.pvd"));
+        let text = std::fs::read_to_string(&pvd)
+            .map_err(|e| OutputError::io(OutputErrorKind::Read, &pvd, e))?;
+        let mut entries = String::new();
+        let mut kept = 0u64;
+        for line in text
+            .lines()
+            .filter(|l| l.trim_start().starts_with("<DataSet "))
+        {
+            if kept == frames {
+                break;
+            }
+            entries.push_str(line);
+            entries.push('\n');
+            kept += 1;
+        }
+        if kept < frames {
+            return Err(OutputError::io(
+                OutputErrorKind::Read,
+                &pvd,
+                std::io::Error::other(format!(
+                    "it lists {kept} frames, the checkpoint was taken after {frames}"
+                )),
+            ));
+        }
+        let s = PvdSeries {
+            dir,
+            stem,
+            pvd,
+            entries,
+            frames,
+        };
+        s.write_index()?;
+        Ok(s)
+    }
+
+    /// Frames in the series.
+    pub(crate) fn frames(&self) -> u64 {
+        self.frames
+    }
+
     /// Write the next frame's file (`STEM_NNNNNN.EXT`) at time `t` and add it to the index
     /// (the index itself is written by [`PvdSeries::write_index`]).
     pub(crate) fn add(&mut self, t: f64, ext: &str, bytes: &[u8]) -> Result<(), OutputError> {
@@ -92,6 +144,19 @@ impl BeamSeries {
             series: PvdSeries::create(outdir, "beams")?,
             buf: String::new(),
         })
+    }
+
+    /// Continue `OUTDIR/beams/` after `frames` frames (a restart).
+    pub(crate) fn resume(outdir: &Path, frames: u64) -> Result<BeamSeries, OutputError> {
+        Ok(BeamSeries {
+            series: PvdSeries::resume(outdir, "beams", frames)?,
+            buf: String::new(),
+        })
+    }
+
+    /// Frames written.
+    pub(crate) fn frames(&self) -> u64 {
+        self.series.frames()
     }
 
     /// Write the frame's `.vtp` file and add it to the index (the index itself is written

@@ -65,7 +65,24 @@ pub(crate) struct MeshSeries {
 impl MeshSeries {
     /// Create `OUTDIR/mesh/` and an empty `mesh.pvd`.
     pub(crate) fn create(outdir: &Path, layout: &Layout) -> Result<MeshSeries, OutputError> {
-        let series = PvdSeries::create(outdir, "mesh")?;
+        Self::with_series(PvdSeries::create(outdir, "mesh")?, layout)
+    }
+
+    /// Continue `OUTDIR/mesh/` after `frames` frames (a restart).
+    pub(crate) fn resume(
+        outdir: &Path,
+        layout: &Layout,
+        frames: u64,
+    ) -> Result<MeshSeries, OutputError> {
+        Self::with_series(PvdSeries::resume(outdir, "mesh", frames)?, layout)
+    }
+
+    /// Frames written.
+    pub(crate) fn frames(&self) -> u64 {
+        self.series.frames()
+    }
+
+    fn with_series(series: PvdSeries, layout: &Layout) -> Result<MeshSeries, OutputError> {
         let ml = &layout.meshes;
         let mut g = String::new();
         g.push_str(

@@ -1,0 +1,254 @@
+//! End-to-end: checkpoints and `mbdc run --restart`. A run continued from a checkpoint —
+//! after a shorter run, after SIGKILL at any moment, from an older checkpoint when the
+//! newest is damaged — writes files bitwise equal to the run made straight through; a
+//! checkpoint of another run is refused naming the difference; an unwritable checkpoint
+//! folder stops the run with a report.
+
+mod common;
+use common::{command, mbdc, root, s, scratch, summary};
+
+use std::path::Path;
+use std::process::Stdio;
+
+/// Run the interpreter on `model` into `out` with `extra` arguments; returns (success,
+/// stderr).
+fn run(model: &str, out: &Path, extra: &[&str]) -> (bool, String) {
+    let m = root().join(model);
+    let mut args = vec!["run", "--interp", "-q", "-o", s(out)];
+    args.extend_from_slice(extra);
+    args.push(s(&m));
+    let o = mbdc(&args);
+    (
+        o.status.success(),
+        String::from_utf8_lossy(&o.stderr).to_string(),
+    )
+}
+
+/// The files of two output folders that must be equal, byte for byte.
+fn same_output(a: &Path, b: &Path) {
+    for f in [
+        "bodies.csv",
+        "energy.csv",
+        "constraints.csv",
+        "beams.csv",
+        "beams.pvd",
+        "mesh_energy.csv",
+        "mesh.pvd",
+    ] {
+        let (x, y) = (a.join(f), b.join(f));
+        if !x.exists() {
+            assert!(!y.exists(), "{f} in one folder only");
+            continue;
+        }
+        let (x, y) = (std::fs::read(&x).unwrap(), std::fs::read(&y).unwrap());
+        if let Some(i) = x.iter().zip(&y).position(|(p, q)| p != q) {
+            let line = x[..i].iter().filter(|&&c| c == b'\n').count() + 1;
+            panic!("{f} differs at line {line}");
+        }
+        assert_eq!(x.len(), y.len(), "{f}: lengths differ");
+    }
+    let (sa, sb) = (summary(a), summary(b));
+    for k in [
+        "steps",
+        "frames",
+        "final_time",
+        "max_constraint_violation",
+        "max_energy_drift",
+    ] {
+        assert_eq!(sa[k], sb[k], "summary {k}");
+    }
+    assert_eq!(sa["energy_balance"], sb["energy_balance"]);
+}
+
+const DP: &str = "models/double_pendulum_3d.mbd";
+
+#[test]
+fn a_run_continued_from_its_checkpoint_is_the_run_made_straight_through() {
+    let dir = scratch("restart-straight");
+    let common = ["--every", "10", "--checkpoint-every", "300"];
+    for (model, long, short, extra) in [
+        (DP, "2", "1.25", &["--method", "staggered"][..]),
+        (DP, "2", "1.25", &["--method", "baumgarte"][..]),
+        (DP, "2", "1.25", &["--method", "penalty"][..]),
+        // beams: element states, the .vtp series and its index
+        ("models/cantilever.mbd", "0.02", "0.013", &[][..]),
+    ] {
+        let straight = dir.join("straight");
+        let cut = dir.join("cut");
+        let _ = std::fs::remove_dir_all(&cut);
+        let with = |d: &'static str| [&["--duration", d][..], &common[..], extra].concat();
+        let (ok, e) = run(model, &straight, &with(long));
+        assert!(ok, "{model}: {e}");
+        // a shorter run stands for one that stopped: its files go on past its last
+        // checkpoint, which the restart cuts back
+        let (ok, e) = run(model, &cut, &with(short));
+        assert!(ok, "{model}: {e}");
+        let mut again = with(long);
+        again.push("--restart");
+        let o = command()
+            .args(["run", "--interp", "-o", s(&cut)])
+            .args(&again)
+            .arg(root().join(model))
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&o.stderr);
+        assert!(o.status.success(), "{model}: {stderr}");
+        assert!(stderr.contains("restarting from"), "{stderr}");
+        same_output(&straight, &cut);
+        if model.contains("cantilever") {
+            let last = std::fs::read_dir(straight.join("beams")).unwrap().count();
+            let name = format!("beams/beams_{:06}.vtp", last - 1);
+            assert_eq!(
+                std::fs::read(straight.join(&name)).unwrap(),
+                std::fs::read(cut.join(&name)).unwrap(),
+                "{name}"
+            );
+        }
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn a_run_killed_at_any_moment_restarts_bitwise() {
+    let dir = scratch("restart-killed");
+    let straight = dir.join("straight");
+    // 10⁵ steps: long enough (about a second) to be killed in the middle
+    let args = [
+        "--duration",
+        "100",
+        "--every",
+        "20",
+        "--checkpoint-every",
+        "2000",
+    ];
+    let (ok, e) = run(DP, &straight, &args);
+    assert!(ok, "{e}");
+    let mut mid_run = 0;
+    for (i, ms) in [100u64, 350, 700].into_iter().enumerate() {
+        let out = dir.join(format!("killed{i}"));
+        let mut child = command()
+            .args(["run", "--interp", "-q", "-o", s(&out)])
+            .args(args)
+            .arg(root().join(DP))
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .unwrap();
+        std::thread::sleep(std::time::Duration::from_millis(ms));
+        let _ = child.kill(); // SIGKILL
+        let _ = child.wait();
+        if summary(&out)["status"] == "started" {
+            mid_run += 1;
+        }
+        if !out.join("checkpoints").exists() {
+            continue; // killed before its first checkpoint: nothing to continue
+        }
+        let mut again = args.to_vec();
+        again.push("--restart");
+        let (ok, e) = run(DP, &out, &again);
+        assert!(ok, "killed after {ms} ms: {e}");
+        same_output(&straight, &out);
+    }
+    assert!(
+        mid_run > 0,
+        "no run was killed before its end: lengthen the run"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn a_damaged_checkpoint_is_refused_and_the_one_before_used() {
+    let dir = scratch("restart-damaged");
+    let (straight, cut) = (dir.join("straight"), dir.join("cut"));
+    let args = |d: &'static str| {
+        [
+            "--duration",
+            d,
+            "--every",
+            "10",
+            "--checkpoint-every",
+            "200",
+        ]
+    };
+    assert!(run(DP, &straight, &args("1")).0);
+    assert!(run(DP, &cut, &args("0.7")).0);
+    let newest = std::fs::read_dir(cut.join("checkpoints"))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .max()
+        .unwrap();
+    let bytes = std::fs::read(&newest).unwrap();
+    std::fs::write(&newest, &bytes[..bytes.len() - 10]).unwrap();
+    let mut again = args("1").to_vec();
+    again.push("--restart");
+    let o = command()
+        .args(["run", "--interp", "-o", s(&cut)])
+        .args(&again)
+        .arg(root().join(DP))
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{stderr}");
+    let name = newest.file_name().unwrap().to_string_lossy().to_string();
+    assert!(
+        stderr.contains(&name) && stderr.contains("cut short"),
+        "the damaged checkpoint is named: {stderr}"
+    );
+    same_output(&straight, &cut);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn a_checkpoint_of_another_run_is_refused_naming_the_difference() {
+    let dir = scratch("restart-other");
+    let out = dir.join("out");
+    let base = [
+        "--duration",
+        "0.5",
+        "--every",
+        "10",
+        "--checkpoint-every",
+        "100",
+    ];
+    assert!(run(DP, &out, &base).0);
+    for (extra, says) in [
+        (
+            &["--method", "baumgarte"][..],
+            "method staggered, not baumgarte",
+        ),
+        (&["--step", "0.0005"][..], "step 1e-3 s, not 5e-4 s"),
+        (&["--set", "L=1.2 m"][..], "numbers differ"),
+    ] {
+        let args = [&base[..], extra, &["--restart"]].concat();
+        let (ok, e) = run(DP, &out, &args);
+        assert!(!ok, "{extra:?} should be refused");
+        assert!(
+            e.contains("is a checkpoint of another run") && e.contains(says),
+            "{e}"
+        );
+    }
+    // no checkpoint at all
+    let (ok, e) = run(DP, &dir.join("empty"), &["--restart"]);
+    assert!(!ok);
+    assert!(e.contains("no checkpoint to restart from"), "{e}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn an_unwritable_checkpoint_folder_stops_the_run_with_a_report() {
+    let dir = scratch("restart-unwritable");
+    let out = dir.join("out");
+    std::fs::create_dir_all(&out).unwrap();
+    // a file where the folder should be
+    std::fs::write(out.join("checkpoints"), b"in the way").unwrap();
+    let (ok, e) = run(
+        DP,
+        &out,
+        &["--duration", "0.5", "--checkpoint-every", "100"],
+    );
+    assert!(!ok, "{e}");
+    let f = &summary(&out)["failure"];
+    assert_eq!(f["where"], "the checkpoint folder", "{f}");
+    assert!(f["time"].as_f64().unwrap() > 0.0);
+    let _ = std::fs::remove_dir_all(&dir);
+}
