@@ -171,6 +171,45 @@ fn beams_and_meshes_are_in_the_page() {
         .filter(|x| x["shape"]["kind"] == "none")
         .count();
     assert_eq!(none, nodes);
+    // the beam's section quantities are in the frames: N1, |M|, M1 per element, after the
+    // bodies' poses (no meshes here)
+    assert_eq!(b["elements"].as_u64().unwrap() as usize, nodes - 1, "{b}");
+    for key in ["n_max", "m_max", "t_max"] {
+        assert!(b[key].as_f64().unwrap() >= 0.0, "{b}");
+    }
+    assert!(
+        b["m_max"].as_f64().unwrap() > 0.0,
+        "the clamped beam bends: {b}"
+    );
+    let slots = d["bodies"].as_array().unwrap().len();
+    let floats = d["frames"]["floats"].as_u64().unwrap() as usize;
+    assert_eq!(floats, 1 + 7 * slots + 3 * (nodes - 1));
+    let frames = page_frames(&beam.join("view.html"));
+    let count = d["frames"]["count"].as_u64().unwrap() as usize;
+    assert_eq!(frames.len(), count * floats);
+    let last = &frames[(count - 1) * floats..];
+    // the last frame's row of element 0 in beams.csv
+    let text = std::fs::read_to_string(beam.join("beams.csv")).unwrap();
+    let name = b["name"].as_str().unwrap();
+    let row: Vec<f64> = text
+        .lines()
+        .rev()
+        .find(|l| l.split(',').nth(1) == Some(name) && l.split(',').nth(2) == Some("0"))
+        .expect("a row of element 0")
+        .split(',')
+        .enumerate()
+        .filter(|(i, _)| *i != 1)
+        .map(|(_, x)| x.parse().unwrap())
+        .collect();
+    // row: t, element, s, N1, N2, N3, M1, M2, M3, ...
+    assert_eq!(last[0], row[0] as f32, "the last frames agree in time");
+    let (n1, m1, m2, m3) = (row[3], row[6], row[7], row[8]);
+    let at = 1 + 7 * slots;
+    assert_eq!(
+        &last[at..at + 3],
+        &[n1 as f32, (m2 * m2 + m3 * m3).sqrt() as f32, m1 as f32],
+        "element 0 of the last frame"
+    );
 
     let mesh = dir.join("mesh");
     run("models/hex_bar.mbd", &mesh, &["--duration", "0.0005"], true);

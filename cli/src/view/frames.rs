@@ -2,8 +2,8 @@
 //! `bodies.csv` into the Float32 block of the page.
 //!
 //! A frame of the block is `t`, then per body slot `x y z qw qx qy qz`, then the meshes'
-//! values (`mesh_surface`). Slots are the columns of `bodies.csv`: the scene's bodies, then
-//! the beams' nodes.
+//! values (`mesh_surface`), then the beams' section quantities (`beam_sections`). Slots are
+//! the columns of `bodies.csv`: the scene's bodies, then the beams' nodes.
 
 use std::io::Read as _;
 use std::path::Path;
@@ -18,17 +18,24 @@ pub(crate) struct FrameLayout {
     pub slots: usize,
     /// Floats of the meshes' values.
     pub mesh_floats: usize,
+    /// Floats of the beams' section quantities (3 per element: `N1`, `|M|`, `M1`).
+    pub beam_floats: usize,
 }
 
 impl FrameLayout {
     /// Floats per frame.
     pub fn floats(&self) -> usize {
-        1 + 7 * self.slots + self.mesh_floats
+        1 + 7 * self.slots + self.mesh_floats + self.beam_floats
     }
 
     /// Where the meshes' values start in a frame.
     pub fn mesh_offset(&self) -> usize {
         1 + 7 * self.slots
+    }
+
+    /// Where the beams' section quantities start in a frame (after the meshes' values).
+    pub fn beam_offset(&self) -> usize {
+        self.mesh_offset() + self.mesh_floats
     }
 }
 
@@ -135,8 +142,8 @@ pub(crate) fn kept_frames(n: usize, every: usize) -> Vec<usize> {
     k
 }
 
-/// The block of the kept frames with their times and the bodies' poses (meshes' values
-/// zero, to be filled).
+/// The block of the kept frames with their times and the bodies' poses (meshes' and beams'
+/// values zero, to be filled).
 pub(crate) fn read_bodies(
     dir: &Path,
     layout: &FrameLayout,

@@ -9,6 +9,7 @@
 //! OUTDIR/bodies.csv ──► frames       every k-th frame (k from the size budget), and the last
 //! OUTDIR/mesh.pvd, mesh/*.vtu ──► mesh_surface   boundary surface, nodal displacement and
 //!                                    von Mises per shown frame
+//! OUTDIR/beams.csv ──► beam_sections   per shown frame and beam element: N1, |M|, M1
 //! OUTDIR/energy.csv, constraints.csv ──► curves
 //! OUTDIR/summary.json ──► status, failure report, the body or joint it names
 //!                     ──► page   viewer.html template + JSON + base64 Float32 frames +
@@ -23,6 +24,7 @@
 //! its failure names highlighted. A folder without `scene.json` (a run of an older mbdc)
 //! is still shown: bodies as spheres, beams recognized by their nodes' names, no joints.
 
+mod beam_sections;
 mod curves;
 mod frames;
 mod mesh_surface;
@@ -174,9 +176,19 @@ pub fn write_view(dir: &Path, opts: ViewOptions) -> Result<ViewWritten, ViewErro
         None => None,
     };
     let mesh_floats = meshes.as_ref().map_or(0, |m| m.floats_per_frame());
+    let sections = beam_sections::layout(dir, &info.beams)?;
+    if sections.is_none() && !info.beams.is_empty() {
+        notes.push(format!(
+            "{}: no beams.csv, or no rows in it (its output was turned off?): the beams are not coloured by their section forces",
+            dir.display()
+        ));
+    }
     let layout = frames::FrameLayout {
         slots: body_names.len(),
         mesh_floats,
+        beam_floats: sections
+            .as_ref()
+            .map_or(0, beam_sections::BeamSections::floats_per_frame),
     };
     let run_frames = frames::count_frames(dir, mesh_files.len())?;
     let max_frames = (opts.max_frame_bytes / (4 * layout.floats())).max(2);
@@ -201,6 +213,9 @@ pub fn write_view(dir: &Path, opts: ViewOptions) -> Result<ViewWritten, ViewErro
                     .filter_map(|&i| mesh_files.get(i).map(|(t, _)| *t)),
             );
         }
+    }
+    if let Some(sec) = &sections {
+        beam_sections::fill(sec, &kept, &mut block, &layout, &mut info.beams)?;
     }
     let (center, extent) = info.bounds(&block, &layout, meshes.as_ref());
     info.finish_shapes(extent);

@@ -48,12 +48,39 @@ pub(crate) struct BodyView {
     color: &'static str,
 }
 
-/// A beam: a tube through its nodes' slots.
+/// A beam: a tube through its nodes' slots, its elements coloured by a section quantity.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub(crate) struct BeamView {
-    name: String,
-    nodes: Vec<usize>,
+    /// The beam's name (as in `beams.csv`).
+    pub name: String,
+    /// The nodes' slots, in node order.
+    pub nodes: Vec<usize>,
     radius: f64,
+    /// Elements whose section quantities are in the frames (`nodes − 1`, or 0 when the run
+    /// wrote no `beams.csv`).
+    pub elements: usize,
+    /// Largest |N1| (axial force, N) over the shown frames.
+    pub n_max: f64,
+    /// Largest |M| = √(M2² + M3²) (bending moment, N·m) over the shown frames.
+    pub m_max: f64,
+    /// Largest |M1| (torsion, N·m) over the shown frames.
+    pub t_max: f64,
+}
+
+impl BeamView {
+    /// A beam through the slots `nodes` drawn with tubes of `radius` (m), not coloured yet
+    /// (no elements: `beam_sections` sets them).
+    pub fn new(name: String, nodes: Vec<usize>, radius: f64) -> BeamView {
+        BeamView {
+            name,
+            nodes,
+            radius,
+            elements: 0,
+            n_max: 0.0,
+            m_max: 0.0,
+            t_max: 0.0,
+        }
+    }
 }
 
 /// A joint: a marker at its point on each side.
@@ -203,11 +230,11 @@ impl SceneInfo {
         }
         for (name, mut nodes, radius) in beams {
             nodes.sort_unstable();
-            info.beams.push(BeamView {
+            info.beams.push(BeamView::new(
                 name,
-                nodes: nodes.into_iter().map(|(_, s)| s).collect(),
+                nodes.into_iter().map(|(_, s)| s).collect(),
                 radius,
-            });
+            ));
         }
         let mut colour = 0usize;
         for (i, name) in slots.iter().enumerate() {

@@ -9,7 +9,7 @@
 //
 // The full sample: a 3-D double pendulum (two 1 m box links, a revolute to
 // ground and one between the links), a spring, a ground plane, a beam of six
-// nodes waving, a 2x1x1 two-hex mesh whose displacement and von Mises vary in
+// nodes waving (with section forces: N1, |M|, M1 per element), a 2x1x1 two-hex mesh whose displacement and von Mises vary in
 // time, and a "failed" status with a report and a highlighted joint.
 
 import { readFileSync, writeFileSync } from 'node:fs';
@@ -103,7 +103,9 @@ function fullSample() {
   const nNodes = mesh.points.length / 3;
 
   const slots = bodies.length;
-  const S = 1 + 7 * slots + 4 * nNodes;
+  const nElements = beamSlots.length - 1;
+  const S = 1 + 7 * slots + 4 * nNodes + 3 * nElements;
+  const beamMax = [0, 0, 0]; // largest |N1|, |M|, |M1|
   const frames = new Float32Array(F * S);
   const curveT = [];
   const kinetic = [];
@@ -152,6 +154,20 @@ function fullSample() {
         grow(p);
         frames.set([...p, 1, 0, 0, 0], o + 1 + 7 * s);
       });
+      // Beam section quantities (after the mesh's values): a travelling axial force
+      // wave (signed), a bending moment that follows the curvature of the wave and a
+      // small torsion.
+      const bOff = o + 1 + 7 * slots + 4 * nNodes;
+      for (let e = 0; e < nElements; e++) {
+        const ph = 2 * Math.PI * 0.8 * t - 1.2 * (e + 0.5);
+        const q = [
+          2.0e3 * Math.sin(ph) * (1 - e / nElements),
+          Math.hypot(40 * Math.cos(ph) * (e + 0.5) / nElements, 15 * Math.sin(0.7 * t)),
+          6 * Math.sin(1.3 * t + e),
+        ];
+        frames.set(q, bOff + 3 * e);
+        q.forEach((v, k) => { beamMax[k] = Math.max(beamMax[k], Math.abs(Math.fround(v))); });
+      }
       // Mesh: cantilever bending (fixed at x = -4) and a matching stress field.
       const amp = 0.25 * Math.sin(2 * Math.PI * 0.5 * t);
       const dOff = o + 1 + 7 * slots;
@@ -191,7 +207,10 @@ function fullSample() {
     center: lo.map((c, i) => (c + hi[i]) / 2),
     extent: Math.hypot(...lo.map((c, i) => hi[i] - c)),
     bodies,
-    beams: [{ name: 'arm', nodes: beamSlots, radius: 0.04 }],
+    beams: [{
+      name: 'arm', nodes: beamSlots, radius: 0.04, elements: nElements,
+      n_max: beamMax[0], m_max: beamMax[1], t_max: beamMax[2],
+    }],
     joints: [
       { name: 'shoulder', kind: 'revolute', a: null, pa: [0, 0, 0], b: 0, pb: [-0.5, 0, 0], axis: [0, 1, 0] },
       { name: 'elbow', kind: 'revolute', a: 0, pa: [0.5, 0, 0], b: 1, pb: [-0.5, 0, 0], axis: [0, 1, 0] },

@@ -1,8 +1,10 @@
-// Colour map for mesh fields (a "jet"-like blue -> cyan -> green -> yellow -> red)
-// and number formatting shared by the colour bar, the curves panel and the
-// info line.
+// Colour maps: the sequential one for magnitudes (a "jet"-like blue -> cyan ->
+// green -> yellow -> red; mesh fields, beam bending |M|) and a diverging one for
+// signed quantities (blue -> white -> red; beam N1 and M1, range +-max), and
+// number formatting shared by the colour bars, the curves panel and the info line.
 
-const STOPS = [
+/** Sequential map: u in [0, 1]. */
+export const STOPS = [
   [0.0, [0.13, 0.25, 0.85]],
   [0.25, [0.1, 0.75, 0.95]],
   [0.5, [0.2, 0.8, 0.3]],
@@ -10,23 +12,32 @@ const STOPS = [
   [1.0, [0.9, 0.15, 0.1]],
 ];
 
-/** Map u in [0,1] to linear-ish RGB in [0,1], written into out[o..o+2]. */
-export function colormap(u, out, o) {
+/** Diverging map: u in [0, 1] for values -max..+max (0.5 is zero, white). */
+export const DIVERGING = [
+  [0.0, [0.16, 0.27, 0.72]],
+  [0.25, [0.5, 0.64, 0.93]],
+  [0.5, [0.97, 0.97, 0.97]],
+  [0.75, [0.95, 0.6, 0.48]],
+  [1.0, [0.72, 0.08, 0.12]],
+];
+
+/** Map u in [0,1] to sRGB in [0,1] by the stops (sequential by default), written into out[o..o+2]. */
+export function colormap(u, out, o, stops = STOPS) {
   if (!(u > 0)) u = 0;
   if (u > 1) u = 1;
   let k = 1;
-  while (k < STOPS.length - 1 && STOPS[k][0] < u) k++;
-  const [u0, c0] = STOPS[k - 1];
-  const [u1, c1] = STOPS[k];
+  while (k < stops.length - 1 && stops[k][0] < u) k++;
+  const [u0, c0] = stops[k - 1];
+  const [u1, c1] = stops[k];
   const f = (u - u0) / (u1 - u0);
   out[o] = c0[0] + f * (c1[0] - c0[0]);
   out[o + 1] = c0[1] + f * (c1[1] - c0[1]);
   out[o + 2] = c0[2] + f * (c1[2] - c0[2]);
 }
 
-/** CSS linear-gradient (bottom = 0, top = 1) matching colormap(). */
-export function cssGradient() {
-  const parts = STOPS.map(([u, c]) => `rgb(${c.map((x) => Math.round(x * 255)).join(',')}) ${u * 100}%`);
+/** CSS linear-gradient (bottom = 0, top = 1) matching colormap() with these stops. */
+export function cssGradient(stops = STOPS) {
+  const parts = stops.map(([u, c]) => `rgb(${c.map((x) => Math.round(x * 255)).join(',')}) ${u * 100}%`);
   return `linear-gradient(to top, ${parts.join(', ')})`;
 }
 

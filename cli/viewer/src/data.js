@@ -7,7 +7,8 @@
 //   per body slot:          x y z qw qx qy qz   (mass centre, body->world)
 //   per mesh, per node:     dx dy dz            (displacement from reference)
 //   per mesh, per node:     von_mises           (Pa, nodal)
-// so S = 1 + 7*slots + sum_mesh 4*nodes.
+//   per beam, per element:  N1 |M| M1           (N, N·m, N·m; |M| = sqrt(M2² + M3²))
+// so S = 1 + 7*slots + sum_mesh 4*nodes + sum_beam 3*elements.
 
 /** Warnings found while decoding (shown on screen, not treated as errors). */
 export const warnings = [];
@@ -45,7 +46,16 @@ function normalize(d) {
     shape: (b && b.shape) || { kind: 'none' },
     color: (b && b.color) || '#888888',
   }));
-  d.beams = arr(d.beams);
+  const count = (x) => (Number.isInteger(x) && x > 0 ? x : 0);
+  const maxOf = (x) => (Number(x) > 0 ? Number(x) : 0);
+  d.beams = arr(d.beams).map((b) => ({
+    ...b,
+    nodes: arr(b && b.nodes),
+    elements: count(b && b.elements),
+    n_max: maxOf(b && b.n_max),
+    m_max: maxOf(b && b.m_max),
+    t_max: maxOf(b && b.t_max),
+  }));
   d.joints = arr(d.joints).map((j) => ({ ...j, pa: vec(j.pa, [0, 0, 0]), pb: vec(j.pb, [0, 0, 0]) }));
   d.springs = arr(d.springs).map((s) => ({ ...s, pa: vec(s.pa, [0, 0, 0]), pb: vec(s.pb, [0, 0, 0]) }));
   d.planes = arr(d.planes).map((p) => ({ ...p, point: vec(p.point, [0, 0, 0]), normal: vec(p.normal, [0, 0, 1]) }));
@@ -86,6 +96,12 @@ export function loadData() {
   for (const m of desc.meshes) {
     meshVm.push(off);
     off += Math.floor(m.points.length / 3);
+  }
+  // Offsets of each beam's section quantities (3 floats per element).
+  const beamSec = [];
+  for (const b of desc.beams) {
+    beamSec.push(off);
+    off += 3 * b.elements;
   }
   const S = off;
   if (desc.frames.floats != null && desc.frames.floats !== S) {
@@ -128,6 +144,13 @@ export function loadData() {
     /** Float offset of mesh m's von Mises block in frame i (or -1). */
     vmOffset(i, m) {
       return F > 0 ? i * S + meshVm[m] : -1;
+    },
+    /**
+     * Float offset of beam b's section quantities in frame i (element e's N1, |M|, M1
+     * at +3e, +3e+1, +3e+2), or -1 when there are none.
+     */
+    beamOffset(i, b) {
+      return F > 0 && desc.beams[b].elements > 0 ? i * S + beamSec[b] : -1;
     },
     /** Index of the frame whose time is nearest to t. */
     nearestFrame(t) {
@@ -175,5 +198,27 @@ export function loadData() {
   });
   data.dispMax = dispMax;
   data.vmMax = vmMax;
+
+  // Beam field ranges (largest |value| over the shown frames, one range for all beams):
+  // from the description, or from the frames when it does not give them.
+  const beamMax = { axial: 0, bending: 0, torsion: 0 };
+  const keys = [['axial', 'n_max'], ['bending', 'm_max'], ['torsion', 't_max']];
+  desc.beams.forEach((b, k) => {
+    keys.forEach(([f, key], q) => {
+      let m = b[key];
+      if (!(m > 0)) {
+        for (let i = 0; i < F; i++) {
+          const o = data.beamOffset(i, k);
+          for (let e = 0; o >= 0 && e < b.elements; e++) {
+            const v = Math.abs(floats[o + 3 * e + q]);
+            if (v > m) m = v;
+          }
+        }
+      }
+      if (m > beamMax[f]) beamMax[f] = m;
+    });
+  });
+  data.beamMax = beamMax;
+  data.hasBeamSections = desc.beams.some((b) => b.elements > 0);
   return data;
 }

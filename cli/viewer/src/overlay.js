@@ -1,8 +1,8 @@
 // Overlays on the 3-D view: the info line (model, method, step, status,
 // decimation, decoding warnings), the report box for runs that did not
-// finish, and the colour bar of the mesh field.
+// finish, and the colour bars of the mesh field and of the beam field.
 
-import { cssGradient, formatSI } from './colormap.js';
+import { DIVERGING, cssGradient, formatSI } from './colormap.js';
 import { warnings } from './data.js';
 
 const STATUS_TITLE = {
@@ -78,4 +78,31 @@ export function showColorBar(data, field) {
   bar.querySelector('.name').textContent = isVm ? 'von Mises' : '|displacement|';
   bar.querySelector('.max').textContent = formatSI(isVm ? data.vmMax : data.dispMax, isVm ? 'Pa' : 'm');
   bar.querySelector('.min').textContent = formatSI(0, isVm ? 'Pa' : 'm');
+  bar.querySelector('.mid').textContent = '';
+}
+
+/** Beam fields: colour-bar title, unit, whether signed (diverging map, range +-max). */
+const BEAM_FIELDS = {
+  axial: ['beam axial N₁', 'N', true],
+  bending: ['beam bending |M|', 'N·m', false],
+  torsion: ['beam torsion M₁', 'N·m', true],
+};
+
+/** Show or hide the colour bar for the beam field 'axial' | 'bending' | 'torsion' | 'none'. */
+export function showBeamBar(data, field) {
+  const bar = document.getElementById('beambar');
+  if (!bar) return;
+  const f = BEAM_FIELDS[field];
+  if (!data.hasBeamSections || !f) {
+    bar.hidden = true;
+    return;
+  }
+  const [name, unit, signed] = f;
+  const max = data.beamMax[field] || 0;
+  bar.hidden = false;
+  bar.querySelector('.ramp').style.background = cssGradient(signed ? DIVERGING : undefined);
+  bar.querySelector('.name').textContent = name;
+  bar.querySelector('.max').textContent = formatSI(max, unit);
+  bar.querySelector('.mid').textContent = signed ? formatSI(0, unit) : '';
+  bar.querySelector('.min').textContent = formatSI(signed ? -max : 0, unit);
 }

@@ -1,8 +1,8 @@
 // Playback and controls UI: play/pause, speed, scrub bar and time label,
-// frame stepping, follow, trails, body axes, mesh field, reset view, keyboard
+// frame stepping, follow, trails, body axes, mesh field, beam field, reset view, keyboard
 // shortcuts, and the animation loop that renders on demand.
 
-import { showColorBar } from './overlay.js';
+import { showBeamBar, showColorBar } from './overlay.js';
 
 const SPEEDS = [0.1, 0.2, 0.5, 1, 2, 5, 10];
 
@@ -19,7 +19,7 @@ function option(value, label) {
 
 /**
  * Wire the controls bar to the scene `view` and the curves panel.
- * `opts` comes from the URL hash: {t, follow, trails, axes, field, speed}.
+ * `opts` comes from the URL hash: {t, follow, trails, axes, field, beamfield, speed}.
  * `afterRender(playing)` is called after every render (test hooks).
  * Returns {applyOptions(opts), seekTime(t)}.
  */
@@ -85,6 +85,13 @@ export function startPlayback(view, data, curves, opts, afterRender) {
   } else {
     $('field-wrap').hidden = true;
   }
+  const beamSel = $('beamfield');
+  if (view.hasBeamSections) {
+    beamSel.append(option('axial', 'axial N₁'), option('bending', 'bending |M|'), option('torsion', 'torsion M₁'), option('none', 'none'));
+    beamSel.value = view.beamField;
+  } else {
+    $('beamfield-wrap').hidden = true;
+  }
 
   // --- actions ----------------------------------------------------------------------
   function showFrame(i) {
@@ -128,6 +135,11 @@ export function startPlayback(view, data, curves, opts, afterRender) {
   fieldSel.addEventListener('change', () => {
     view.setField(fieldSel.value);
     showColorBar(data, view.field);
+    state.dirty = true;
+  });
+  beamSel.addEventListener('change', () => {
+    view.setBeamField(beamSel.value);
+    showBeamBar(data, view.beamField);
     state.dirty = true;
   });
   $('reset').addEventListener('click', () => {
@@ -180,7 +192,12 @@ export function startPlayback(view, data, curves, opts, afterRender) {
       fieldSel.value = o.field;
       view.setField(o.field);
     }
+    if (o.beamfield && view.hasBeamSections && ['axial', 'bending', 'torsion', 'none'].includes(o.beamfield)) {
+      beamSel.value = o.beamfield;
+      view.setBeamField(o.beamfield);
+    }
     showColorBar(data, view.field);
+    showBeamBar(data, view.beamField);
     if (o.t != null) {
       setPlaying(false);
       seekFrame(data.nearestFrame(o.t));

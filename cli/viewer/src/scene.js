@@ -31,20 +31,20 @@ import {
   WebGLRenderer,
 } from 'three';
 import { OrbitControls } from 'three/examples/jsm/controls/OrbitControls.js';
-import { colormap } from './colormap.js';
+import { DIVERGING, STOPS, colormap } from './colormap.js';
 
 const HIGHLIGHT = new Color('#ff1a1a');
 const Y_AXIS = new Vector3(0, 1, 0);
 const SPRING_COILS = 8;
 const SPRING_SEGMENTS_PER_COIL = 24;
 
-/** Linear-space colour lookup table for the field colour map. */
-function makeLut(n) {
+/** Linear-space colour lookup table for a colour map (sequential by default). */
+function makeLut(n, stops = STOPS) {
   const lut = new Float32Array(3 * n);
   const rgb = [0, 0, 0];
   const c = new Color();
   for (let i = 0; i < n; i++) {
-    colormap(i / (n - 1), rgb, 0);
+    colormap(i / (n - 1), rgb, 0, stops);
     c.setRGB(rgb[0], rgb[1], rgb[2], SRGBColorSpace); // converts to linear working space
     lut[3 * i] = c.r; lut[3 * i + 1] = c.g; lut[3 * i + 2] = c.b;
   }
@@ -278,32 +278,40 @@ export function createScene(container, data) {
   });
 
   // --- beams (a cylinder per segment plus a sphere per node) ---------------------
+  // Segment i is element i (between nodes i and i+1); with section data each segment
+  // has its own material, coloured by the beam field, and each node sphere the mean
+  // of its segments' colours.
   const cylGeom = new CylinderGeometry(1, 1, 1, 16, 1, true);
   const nodeGeom = new SphereGeometry(1, 16, 8);
-  const beams = desc.beams.map((bm) => {
-    const nodes = (Array.isArray(bm.nodes) ? bm.nodes : []).map(validSlot).filter((s) => s != null);
+  const beams = desc.beams.map((bm, k) => {
+    const nodes = bm.nodes.map(validSlot).filter((s) => s != null);
     const r = Number(bm.radius) > 0 ? Number(bm.radius) : 0.01 * L;
-    const colour = nodes.length ? desc.bodies[nodes[0]].color : '#999999';
-    const material = new MeshStandardMaterial({ color: new Color(colour), roughness: 0.5, metalness: 0.1 });
+    const base = new Color(nodes.length ? desc.bodies[nodes[0]].color : '#999999');
+    const material = new MeshStandardMaterial({ color: base, roughness: 0.5, metalness: 0.1 });
+    // elements coloured: only those that are segments drawn
+    const coloured = Math.min(bm.elements, Math.max(0, nodes.length - 1));
     const segs = [];
     for (let i = 0; i + 1 < nodes.length; i++) {
-      const m = new Mesh(cylGeom, material);
+      const mat = i < coloured ? material.clone() : material;
+      const m = new Mesh(cylGeom, mat);
       m.frustumCulled = false;
       scene.add(m);
       segs.push(m);
     }
-    const balls = nodes.map(() => {
-      const m = new Mesh(nodeGeom, material);
+    const balls = nodes.map((_, i) => {
+      const own = coloured > 0 && i <= coloured; // a node of a coloured element
+      const m = new Mesh(nodeGeom, own ? material.clone() : material);
       m.scale.setScalar(r);
       m.frustumCulled = false;
       scene.add(m);
       return m;
     });
-    return { nodes, r, segs, balls };
+    return { k, nodes, r, segs, balls, base, coloured };
   });
 
   // --- meshes (boundary triangles + bar lines, coloured by field) ----------------
   const lut = makeLut(256);
+  const lutDiverging = makeLut(256, DIVERGING);
   const meshes = desc.meshes.map((m) => {
     const n = Math.floor(m.points.length / 3);
     const ref = new Float32Array(m.points.slice(0, 3 * n));
@@ -343,6 +351,9 @@ export function createScene(container, data) {
   // --- state & helpers ----------------------------------------------------------------
   let frame = 0;
   let field = data.vmMax > 0 ? 'vm' : data.dispMax > 0 ? 'disp' : 'none';
+  const bmax = data.beamMax;
+  let beamField = !data.hasBeamSections ? 'none'
+    : bmax.bending > 0 ? 'bending' : bmax.axial > 0 ? 'axial' : bmax.torsion > 0 ? 'torsion' : 'none';
   let follow = null;
   const tmpP = [0, 0, 0];
   const tmpQ = [1, 0, 0, 0];
@@ -459,6 +470,42 @@ export function createScene(container, data) {
     col.needsUpdate = true;
   }
 
+  const NO_DATA = new Color(0.62, 0.65, 0.7); // an element without a value (NaN)
+  const BEAM_Q = { axial: 0, bending: 1, torsion: 2 };
+
+  /** Colour the segments and node spheres of beam bm for the current frame. */
+  function colourBeam(bm) {
+    if (bm.coloured === 0) return;
+    const q = BEAM_Q[beamField];
+    const o = q == null ? -1 : data.beamOffset(frame, bm.k);
+    const fl = data.floats;
+    const max = q == null ? 0 : data.beamMax[beamField];
+    for (let i = 0; i < bm.coloured; i++) {
+      const c = bm.segs[i].material.color;
+      if (q == null) { c.copy(bm.base); continue; }
+      const v = o >= 0 ? fl[o + 3 * i + q] : NaN;
+      if (!Number.isFinite(v)) { c.copy(NO_DATA); continue; }
+      let li;
+      if (q === 1) {
+        const u = max > 0 ? v / max : 0;
+        li = 3 * Math.max(0, Math.min(255, Math.round(u * 255) || 0));
+        c.setRGB(lut[li], lut[li + 1], lut[li + 2]);
+      } else {
+        const u = max > 0 ? 0.5 + 0.5 * (v / max) : 0.5;
+        li = 3 * Math.max(0, Math.min(255, Math.round(u * 255) || 0));
+        c.setRGB(lutDiverging[li], lutDiverging[li + 1], lutDiverging[li + 2]);
+      }
+    }
+    bm.balls.forEach((ball, i) => {
+      if (i > bm.coloured) return; // shares the beam's material
+      const c = ball.material.color;
+      const a = i - 1 >= 0 && i - 1 < bm.coloured ? bm.segs[i - 1].material.color : null;
+      const b = i < bm.coloured ? bm.segs[i].material.color : null;
+      if (a && b) c.copy(a).lerp(b, 0.5);
+      else if (a || b) c.copy(a || b);
+    });
+  }
+
   /** Pose everything for frame i. */
   function setFrame(i) {
     frame = data.F > 0 ? Math.max(0, Math.min(data.F - 1, i | 0)) : 0;
@@ -494,6 +541,7 @@ export function createScene(container, data) {
         if (len > 1e-12) seg.quaternion.setFromUnitVectors(Y_AXIS, d.divideScalar(len));
         seg.scale.set(bm.r, Math.max(len, 1e-9), bm.r);
       }
+      colourBeam(bm);
     }
     meshes.forEach(updateMesh);
     for (const [, line] of trails) line.geometry.setDrawRange(0, frame + 1);
@@ -585,6 +633,11 @@ export function createScene(container, data) {
     meshes.forEach(updateMesh);
   }
 
+  function setBeamField(f) {
+    beamField = data.hasBeamSections && (f === 'axial' || f === 'bending' || f === 'torsion') ? f : 'none';
+    beams.forEach(colourBeam);
+  }
+
   /** Screen positions (CSS px, viewport origin) of drawn bodies' mass centres. */
   function projectBodies() {
     const rect = renderer.domElement.getBoundingClientRect();
@@ -612,8 +665,10 @@ export function createScene(container, data) {
     renderer, camera, controls,
     get frame() { return frame; },
     get field() { return field; },
+    get beamField() { return beamField; },
     hasMeshes: meshes.length > 0,
-    setFrame, render, resize, resetView, pulse, setFollow, setTrail, setAxes, setField, projectBodies,
+    hasBeamSections: data.hasBeamSections,
+    setFrame, render, resize, resetView, pulse, setFollow, setTrail, setAxes, setField, setBeamField, projectBodies,
     hasHighlight: hlBody != null || hlJoint != null,
   };
 }

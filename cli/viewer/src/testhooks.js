@@ -1,12 +1,12 @@
 // Test hooks for the headless-Chromium test on the Rust side (no interaction):
 //  * errors: window.onerror, unhandledrejection and console.error are captured
 //    from the moment this module is evaluated (it is imported first);
-//  * the URL hash `#t=1.25&follow=rod1&trails=rod1,rod2&axes=1&field=vm&speed=2&size=1000x700`
+//  * the URL hash `#t=1.25&follow=rod1&trails=rod1,rod2&axes=1&field=vm&beamfield=axial&speed=2&size=1000x700`
 //    is parsed by parseHash() (size pins the page layout to W x H CSS px, so that
 //    a --dump-dom run and a --screenshot run lay out identically: headless
 //    Chromium gives the page a shorter viewport for --dump-dom than for --screenshot);
 //  * after each render, writeTestState() fills <pre id="mbdc-test"> with
-//    {"ready":true,"frame":k,"t":t,"errors":[...],"width":W,"height":H,"bodies":[...]}
+//    {"ready":true,"frame":k,"t":t,"errors":[...],"width":W,"height":H,"bodies":[...],"beam_field":f}
 //    and sets document.body.dataset.status = "ready".
 
 /** Captured error messages (strings). */
@@ -35,7 +35,7 @@ console.error = (...args) => {
   consoleError(...args);
 };
 
-/** Parse the URL hash into {t, follow, trails, axes, field, speed, size} (missing keys absent). */
+/** Parse the URL hash into {t, follow, trails, axes, field, beamfield, speed, size} (missing keys absent). */
 export function parseHash(hash) {
   const out = {};
   const h = (hash || '').replace(/^#/, '');
@@ -51,6 +51,7 @@ export function parseHash(hash) {
     else if (k === 'trails') out.trails = v.split(',').filter(Boolean);
     else if (k === 'axes') out.axes = v !== '0' && v !== 'false';
     else if (k === 'field') out.field = v;
+    else if (k === 'beamfield') out.beamfield = v;
     else if (k === 'speed') out.speed = v;
     else if (k === 'size') {
       const m = /^(\d+)x(\d+)$/.exec(v);
@@ -81,6 +82,7 @@ export function writeTestState(view, data) {
     width: window.innerWidth,
     height: window.innerHeight,
     bodies: view ? view.projectBodies() : [],
+    beam_field: view ? view.beamField : 'none',
   };
   pre.textContent = JSON.stringify(state);
   document.body.dataset.status = 'ready';
