@@ -90,6 +90,18 @@ pub fn vec_bool(v: &mut dyn StateVisitor, name: &'static str, x: &mut Vec<bool>)
     v.bools(name, x);
 }
 
+/// A dense matrix whose shape is part of the state (a method's buffer or a matrix it
+/// factors again on the next step): rows, columns, then the entries column by column.
+/// Loading reshapes the matrix to the saved shape.
+pub fn dmatrix(v: &mut dyn StateVisitor, name: &'static str, m: &mut nalgebra::DMatrix<f64>) {
+    let r = v.len(name, m.nrows());
+    let c = v.len(name, m.ncols());
+    if (r, c) != m.shape() {
+        *m = nalgebra::DMatrix::zeros(r, c);
+    }
+    v.f64s(name, m.as_mut_slice());
+}
+
 /// Visit `n` floats per item, packed by `get` and unpacked by `set`.
 fn packed<T>(
     v: &mut dyn StateVisitor,

@@ -646,6 +646,91 @@ impl MeshDynamics {
             .sum();
     }
 
+    /// Visit everything the meshes carry from one step to the next, for a checkpoint
+    /// ([`crate::contract::persist`]): the step and time, displacements, velocities and
+    /// accelerations (the next half kick's, computed with the half-step velocities: the
+    /// restart state's velocities would give other rate forces), the step's increments, the
+    /// loads, foundation forces and reactions the next step's trapezoidal work starts from,
+    /// the element outputs, the integration points' plastic state and the elements' plastic
+    /// means, and every energy accumulator (work of loads and ties, hourglass and plastic
+    /// dissipation). Not carried: the layout, the element constants and kernels (made again
+    /// identically from the scene) and the assembly's nodal sums (set afresh by every
+    /// evaluation).
+    pub fn persist(&mut self, v: &mut dyn crate::contract::persist::StateVisitor) {
+        use crate::contract::persist;
+        persist::f64(v, "mesh.h", &mut self.h);
+        persist::f64(v, "mesh.t", &mut self.t);
+        for (name, x) in [
+            ("mesh.u", &mut self.u),
+            ("mesh.v", &mut self.v),
+            ("mesh.a", &mut self.a),
+            ("mesh.du", &mut self.du),
+            ("mesh.f_ext", &mut self.f_ext),
+            ("mesh.f_found", &mut self.f_found),
+            ("mesh.reaction", &mut self.reaction),
+        ] {
+            v.f64s(name, x.as_flattened_mut());
+        }
+        v.f64s("mesh.stress", self.stress.as_flattened_mut());
+        v.f64s("mesh.strain", self.strain.as_flattened_mut());
+        let mut sc: Vec<f64> = self
+            .scalars
+            .iter()
+            .flat_map(|s| {
+                [
+                    s.strain_energy,
+                    s.hourglass_energy,
+                    s.hourglass_power,
+                    s.min_jacobian,
+                ]
+            })
+            .collect();
+        v.f64s("mesh.scalars", &mut sc);
+        for (s, b) in self.scalars.iter_mut().zip(sc.chunks_exact(4)) {
+            s.strain_energy = b[0];
+            s.hourglass_energy = b[1];
+            s.hourglass_power = b[2];
+            s.min_jacobian = b[3];
+        }
+        let n = v.len("mesh.plastic", self.plastic.len());
+        self.plastic.resize_with(n, PlasticState::default);
+        for p in self.plastic.iter_mut() {
+            let n = v.len("mesh.plastic.points", p.equivalent.len());
+            p.strain.resize(n, [0.0; 6]);
+            p.equivalent.resize(n, 0.0);
+            p.stress.resize(n, [0.0; 6]);
+            v.f64s("mesh.plastic.strain", p.strain.as_flattened_mut());
+            v.f64s("mesh.plastic.equivalent", &mut p.equivalent);
+            v.f64s("mesh.plastic.stress", p.stress.as_flattened_mut());
+        }
+        for po in self.plastic_out.iter_mut() {
+            let mut b: Vec<f64> = po
+                .iter()
+                .flat_map(|r| r.strain.iter().copied().chain([r.equivalent, r.work]))
+                .collect();
+            v.f64s("mesh.plastic_out", &mut b);
+            for (r, b) in po.iter_mut().zip(b.chunks_exact(8)) {
+                r.strain.copy_from_slice(&b[..6]);
+                r.equivalent = b[6];
+                r.work = b[7];
+            }
+        }
+        let e = &mut self.energy;
+        for (name, x) in [
+            ("mesh.energy.kinetic", &mut e.kinetic),
+            ("mesh.energy.strain", &mut e.strain),
+            ("mesh.energy.hourglass", &mut e.hourglass),
+            ("mesh.energy.foundation", &mut e.foundation),
+            ("mesh.energy.external_work", &mut e.external_work),
+            ("mesh.energy.dissipated", &mut e.dissipated),
+            ("mesh.energy.plastic", &mut e.plastic),
+            ("mesh.energy.tie_work", &mut e.tie_work),
+            ("mesh.energy.half_step", &mut e.half_step),
+        ] {
+            persist::f64(v, name, x);
+        }
+    }
+
     /// Copy the state at the current time into `out` (reusing its buffers).
     pub fn state(&self, out: &mut super::MeshState) {
         out.u.clone_from(&self.u);

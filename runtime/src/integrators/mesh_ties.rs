@@ -139,6 +139,23 @@ impl Coupler {
         })
     }
 
+    /// Visit what the coupling carries between steps, for a checkpoint
+    /// ([`crate::contract::persist`]): the ties' wrench the bodies' next step takes and the
+    /// one before (the synchronized output's half kick uses both), the tied nodes' last
+    /// motion, and the bodies' state after the last step.
+    pub fn persist(&mut self, v: &mut dyn crate::contract::persist::StateVisitor) {
+        use crate::contract::persist;
+        persist::wrenches(v, "tie.wrench", &mut self.wrench);
+        persist::wrenches(v, "tie.wrench_prev", &mut self.wrench_prev);
+        v.f64s("tie.u", self.u.as_flattened_mut());
+        v.f64s("tie.v", self.v.as_flattened_mut());
+        persist::f64(v, "tie.state.t", &mut self.state.t);
+        persist::poses(v, "tie.state.pose", &mut self.state.pose);
+        persist::twists(v, "tie.state.twist", &mut self.state.twist);
+        v.f64s("tie.state.lambda", &mut self.state.lambda);
+        v.bools("tie.state.active", &mut self.state.active);
+    }
+
     /// The tied nodes' motion for the bodies of `self.state` into `self.u`, `self.v`
     /// ([`place`]).
     ///

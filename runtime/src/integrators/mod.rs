@@ -400,6 +400,24 @@ impl<S: System> Integrator<S> for WithMeshes {
             c.synchronize(sys.layout(), self.h, out);
         }
     }
+    fn persist(&mut self, v: &mut dyn crate::contract::persist::StateVisitor) -> bool {
+        // the rigid method's state (if the scene has bodies; without it nothing persists),
+        // the meshes' and the ties'
+        let mut has_inner = self.inner.is_some();
+        crate::contract::persist::bool(v, "inner", &mut has_inner);
+        if let Some(i) = &mut self.inner {
+            if !Integrator::<S>::persist(i, v) {
+                return false;
+            }
+        }
+        self.mesh.persist(v);
+        let mut has_coupler = self.coupler.is_some();
+        crate::contract::persist::bool(v, "coupler", &mut has_coupler);
+        if let Some(c) = &mut self.coupler {
+            c.persist(v);
+        }
+        true
+    }
     fn active(&self) -> &[bool] {
         self.inner
             .as_ref()

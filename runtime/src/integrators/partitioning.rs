@@ -29,6 +29,7 @@ use nalgebra::{DMatrix, Vector3};
 use super::common::{self, qbar};
 use super::{Integrator, StartError, State, StepError, StepInfo};
 use crate::contract::math::cayley_update;
+use crate::contract::persist::{self, StateVisitor};
 use crate::contract::system::{ConstraintEval, Layout, Need, Pose, RowKind, System, Twist, Wrench};
 use crate::linalg::DenseLu as Lu;
 
@@ -560,6 +561,64 @@ impl<S: System> Integrator<S> for Partitioning {
         out.pose.copy_from_slice(&self.pose);
         out.twist.copy_from_slice(&self.vel);
         out.lambda.copy_from_slice(&self.lambda);
+    }
+
+    fn persist(&mut self, v: &mut dyn StateVisitor) -> bool {
+        // the step size and the projection tolerance (from the initial positions), the state
+        // (positions, velocities, the accelerations the next half kick uses, λ), the rows'
+        // activity, the partition in use with the conditioning it was chosen at (a partition
+        // chosen afresh at the restart state would differ, and with it every later step), the
+        // statistics, and the buffers. The LU factorizations are redone from these matrices
+        // before every use within a step, so they are not carried: only their sizes, which
+        // follow the partition, are set again after loading.
+        persist::f64(v, "h", &mut self.h);
+        persist::f64(v, "t", &mut self.t);
+        persist::f64(v, "tol", &mut self.tol);
+        persist::poses(v, "pose", &mut self.pose);
+        persist::twists(v, "vel", &mut self.vel);
+        persist::twists(v, "acc", &mut self.acc);
+        v.f64s("lambda", &mut self.lambda);
+        v.bools("active", &mut self.active);
+        v.bools("next_active", &mut self.next_active);
+        persist::vec_usize(v, "rows", &mut self.rows);
+        persist::usize(v, "hol", &mut self.hol);
+        persist::vec_usize(v, "dep", &mut self.dep);
+        persist::vec_usize(v, "ind", &mut self.ind);
+        v.bools("is_dep", &mut self.is_dep);
+        persist::f64(v, "pivot_at_choice", &mut self.pivot_at_choice);
+        persist::usize(v, "weakest_row", &mut self.weakest_row);
+        persist::u64(v, "partitions", &mut self.partitions);
+        persist::u64(v, "newton_iterations", &mut self.newton_iterations);
+        persist::constraint_eval(v, &mut self.ce);
+        persist::wrenches(v, "applied", &mut self.applied);
+        persist::wrenches(v, "q", &mut self.q);
+        persist::twists(v, "vhalf", &mut self.vhalf);
+        v.f64s("xv", &mut self.xv);
+        v.f64s("yv", &mut self.yv);
+        v.f64s("rhs", &mut self.rhs);
+        for (name, m) in [
+            ("b", &mut self.b),
+            ("work", &mut self.work),
+            ("bd", &mut self.bd),
+            ("bh", &mut self.bh),
+            ("t_mat", &mut self.t_mat),
+            ("mz", &mut self.mz),
+            ("mred", &mut self.mred),
+        ] {
+            persist::dmatrix(v, name, m);
+        }
+        // factorizations sized for the loaded partition (as `partition` sizes them)
+        let (ma, ni) = (self.rows.len(), self.ind.len());
+        if self.lu_d.dim() != ma {
+            self.lu_d = Lu::new(ma);
+        }
+        if self.lu_h.dim() != self.hol {
+            self.lu_h = Lu::new(self.hol);
+        }
+        if self.lu_red.dim() != ni {
+            self.lu_red = Lu::new(ni);
+        }
+        true
     }
 
     fn active(&self) -> &[bool] {

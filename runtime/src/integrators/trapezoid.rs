@@ -42,6 +42,7 @@ use nalgebra::{DMatrix, Matrix3, Quaternion, Vector3};
 use super::common::{self, accel, bt_lambda, qbar, Index1};
 use super::{Integrator, StartError, State, StepError, StepInfo};
 use crate::contract::math::{rotation, skew};
+use crate::contract::persist::{self, StateVisitor};
 use crate::contract::system::{ConstraintEval, Need, Pose, RowKind, System, Twist, Wrench};
 use crate::linalg::{Backend, Definiteness, DenseLu, KSolver, KSolverOptions, DEFAULT_PIVOT_TOL};
 
@@ -564,6 +565,51 @@ impl<S: System> Integrator<S> for Trapezoid {
         out.pose.copy_from_slice(&self.pose);
         out.twist.copy_from_slice(&self.vel);
         out.lambda.copy_from_slice(&self.lambda_out);
+    }
+
+    fn persist(&mut self, v: &mut dyn StateVisitor) -> bool {
+        // the options and the position scale of the tolerance (from the initial positions),
+        // the state with what the predictor extrapolates from (the previous velocities, and
+        // the initial accelerations before the first step), Q̄ⁿ, the Newton unknown μ and the
+        // reported multipliers, the rows' activity and which rows the Newton system solves
+        // (chosen at the start and when locks change: a choice redone at the restart state
+        // could differ), the statistics (the predictor depends on the step count), and the
+        // iteration buffers. The Newton matrix and the projection are factored again before
+        // every use within a step, so their factorizations are not carried.
+        persist::f64(v, "h", &mut self.h);
+        persist::f64(v, "tol", &mut self.tol);
+        persist::u32(v, "max_iter", &mut self.max_iter);
+        persist::f64(v, "t", &mut self.t);
+        persist::f64(v, "pos_scale", &mut self.pos_scale);
+        persist::poses(v, "pose", &mut self.pose);
+        persist::twists(v, "vel", &mut self.vel);
+        persist::twists(v, "vel_prev", &mut self.vel_prev);
+        persist::wrenches(v, "qbar_n", &mut self.qbar_n);
+        persist::twists(v, "acc0", &mut self.acc0);
+        v.f64s("lambda", &mut self.lambda);
+        v.f64s("lambda_out", &mut self.lambda_out);
+        v.bools("active", &mut self.active);
+        v.bools("next_active", &mut self.next_active);
+        v.bools("solved", &mut self.solved);
+        persist::usize(v, "redundant", &mut self.redundant);
+        persist::poses(v, "pose1", &mut self.pose1);
+        persist::poses(v, "pose_mid", &mut self.pose_mid);
+        persist::twists(v, "vel1", &mut self.vel1);
+        persist::wrenches(v, "applied", &mut self.applied);
+        persist::wrenches(v, "qbar1", &mut self.qbar1);
+        persist::wrenches(v, "flam", &mut self.flam);
+        persist::constraint_eval(v, &mut self.ce);
+        persist::constraint_eval(v, &mut self.ce_mid);
+        persist::dmatrix(v, "jac", &mut self.jac);
+        v.f64s("vres", &mut self.vres);
+        v.f64s("z", &mut self.z);
+        persist::wrenches(v, "fd_base", &mut self.fd_base);
+        persist::poses(v, "fd_pose", &mut self.fd_pose);
+        persist::twists(v, "fd_vel", &mut self.fd_vel);
+        persist::u64(v, "iterations", &mut self.iterations);
+        persist::u64(v, "steps", &mut self.steps);
+        persist::u32(v, "max_iterations", &mut self.max_iterations);
+        true
     }
 
     fn active(&self) -> &[bool] {

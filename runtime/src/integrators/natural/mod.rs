@@ -99,6 +99,7 @@ use nalgebra::Vector3;
 use super::common::{self, gyro, Index1};
 use super::{Integrator, StartError, State, StepError, StepInfo};
 use crate::contract::math::cayley_update;
+use crate::contract::persist::{self, StateVisitor};
 use crate::contract::system::{
     ConstraintEval, Layout, Need, Pose, RowJac, RowKind, System, Twist, Wrench,
 };
@@ -1398,6 +1399,75 @@ impl<S: System> Integrator<S> for Natural {
                 0.0
             };
         }
+    }
+
+    fn persist(&mut self, v: &mut dyn StateVisitor) -> bool {
+        // as the staggered family: what the start derived from the initial state (ε and the
+        // regularization per cut row, the tolerances), the time bookkeeping, both sequences,
+        // the previous velocities, the synchronous estimate ū and the tree correction of ω
+        // the next step starts from, whether the factorization keeps every P, the cut-row
+        // multipliers with their history and warm starts, the response to them, the rows'
+        // activity, the statistics, and every node's blocks (remade each step, carried anyway)
+        persist::f64(v, "h", &mut self.h);
+        persist::f64(v, "epsilon", &mut self.epsilon);
+        v.f64s("e", &mut self.e);
+        v.f64s("e_eff", &mut self.e_eff);
+        v.f64s("lambda_guess", &mut self.lambda_guess);
+        persist::u64(v, "regularized_steps", &mut self.regularized_steps);
+        persist::f64(v, "tau", &mut self.tau);
+        persist::f64(v, "t0", &mut self.t0);
+        persist::u64(v, "half_steps", &mut self.half_steps);
+        for seq in [&mut self.seq, &mut self.trial] {
+            persist::poses(v, "seq.pose", &mut seq.pose);
+            persist::twists(v, "seq.vel", &mut seq.vel);
+        }
+        persist::twists(v, "vel_prev", &mut self.vel_prev);
+        persist::twists(v, "vs", &mut self.vs);
+        let mut gc: Vec<f64> = self.gc.iter().flat_map(|g| g.iter().copied()).collect();
+        v.f64s("gc", &mut gc);
+        for (g, b) in self.gc.iter_mut().zip(gc.chunks_exact(3)) {
+            g.copy_from_slice(b);
+        }
+        persist::bool(v, "keep_p", &mut self.keep_p);
+        persist::twists(v, "resp", &mut self.resp);
+        persist::twists(v, "dresp", &mut self.dresp);
+        v.f64s("lambda", &mut self.lambda);
+        v.f64s("lambda_prev", &mut self.lambda_prev);
+        v.f64s("lambda0", &mut self.lambda0);
+        persist::f64(v, "tau_lambda", &mut self.tau_lambda);
+        v.bools("active", &mut self.active);
+        v.bools("next_active", &mut self.next_active);
+        persist::constraint_eval(v, &mut self.ce);
+        persist::constraint_eval(v, &mut self.ce_trial);
+        persist::wrenches(v, "applied", &mut self.applied);
+        v.f64s("res", &mut self.res);
+        v.f64s("dl", &mut self.dl);
+        v.f64s("diag", &mut self.diag);
+        for w in self.work.iter_mut() {
+            v.f64s("work", w);
+        }
+        persist::f64(v, "tol", &mut self.tol);
+        persist::f64(v, "rtol", &mut self.rtol);
+        let mut limit = self.pcg_limit.is_some();
+        persist::bool(v, "pcg_limit", &mut limit);
+        let mut n = self.pcg_limit.unwrap_or(0);
+        persist::u32(v, "pcg_limit", &mut n);
+        self.pcg_limit = limit.then_some(n);
+        persist::usize(v, "par_min", &mut self.tree.sched.par_min);
+        persist::u64(v, "steps", &mut self.steps);
+        persist::u64(v, "gyro_total", &mut self.gyro_total);
+        persist::u32(v, "gyro_max", &mut self.gyro_max);
+        persist::u64(v, "gyro_unconverged", &mut self.gyro_unconverged);
+        persist::u64(v, "lints", &mut self.lints);
+        persist::u64(v, "newton_total", &mut self.newton_total);
+        persist::u32(v, "newton_max", &mut self.newton_max);
+        persist::u64(v, "pcg_total", &mut self.pcg_total);
+        persist::u64(v, "pcg_solves", &mut self.pcg_solves);
+        persist::u32(v, "pcg_max", &mut self.pcg_max);
+        for n in self.nodes.iter_mut() {
+            n.persist(v);
+        }
+        true
     }
 
     fn active(&self) -> &[bool] {

@@ -118,6 +118,48 @@ impl Node {
         }
     }
 
+    /// Visit the node's blocks and scratch values for a checkpoint
+    /// ([`crate::contract::persist`]): the joint blocks, the factorization, the sweep's
+    /// forces and solutions. A step remakes them before it reads them; they are carried so
+    /// that nothing of the node is left to the restart state.
+    pub fn persist(&mut self, v: &mut dyn crate::contract::persist::StateVisitor) {
+        use crate::contract::persist;
+        persist::f64(v, "node.m", &mut self.m);
+        v.f64s("node.j", self.j.as_mut_slice());
+        let k = &mut self.kin;
+        persist::usize(v, "node.kin.dof", &mut k.dof);
+        persist::f64(v, "node.kin.sigma", &mut k.sigma);
+        persist::bool(v, "node.kin.absolute", &mut k.absolute);
+        v.f64s("node.kin.xv", k.xv.as_mut_slice());
+        v.f64s("node.kin.xw", k.xw.as_mut_slice());
+        for c in k.s.iter_mut() {
+            v.f64s("node.kin.s", c);
+        }
+        v.f64s("node.kin.lever_p", k.lever_p.as_mut_slice());
+        v.f64s("node.kin.lever_c", k.lever_c.as_mut_slice());
+        for a in k.rot.iter_mut().chain(k.trans.iter_mut()) {
+            v.f64s("node.kin.axis", a.as_mut_slice());
+        }
+        v.bools("node.kin.rot_on_a", &mut k.rot_on_a);
+        persist::usize(v, "node.kin.nrot", &mut k.nrot);
+        persist::usize(v, "node.kin.ntrans", &mut k.ntrans);
+        v.f64s("node.pm", self.pm.as_mut_slice());
+        v.f64s("node.wl", &mut self.wl);
+        persist::wrenches(v, "node.f", std::slice::from_mut(&mut self.f));
+        v.f64s("node.hh", &mut self.hh);
+        v.f64s("node.x", &mut self.x);
+        for t in [
+            &mut self.acc,
+            &mut self.a0,
+            &mut self.tw,
+            &mut self.raw,
+            &mut self.dq,
+        ] {
+            persist::twists(v, "node.twist", std::slice::from_mut(t));
+        }
+        persist::poses(v, "node.pose", std::slice::from_mut(&mut self.pose));
+    }
+
     /// `M u` for a twist.
     #[inline]
     pub fn mass_mul(&self, u: &Twist) -> Wrench {
