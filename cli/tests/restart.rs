@@ -1,4 +1,5 @@
-//! End-to-end: checkpoints and `mbdc run --restart`. A run continued from a checkpoint —
+//! End-to-end: checkpoints and `mbdc run --restart`. A run continued from a checkpoint — with
+//! every method, with beams, with an elastoplastic mesh, with a mesh tied to a body —
 //! after a shorter run, after SIGKILL at any moment, from an older checkpoint when the
 //! newest is damaged — writes files bitwise equal to the run made straight through; a
 //! checkpoint of another run is refused naming the difference; an unwritable checkpoint
@@ -65,17 +66,78 @@ const DP: &str = "models/double_pendulum_3d.mbd";
 #[test]
 fn a_run_continued_from_its_checkpoint_is_the_run_made_straight_through() {
     let dir = scratch("restart-straight");
-    let common = ["--every", "10", "--checkpoint-every", "300"];
-    for (model, long, short, extra) in [
-        (DP, "2", "1.25", &["--method", "staggered"][..]),
-        (DP, "2", "1.25", &["--method", "baumgarte"][..]),
-        (DP, "2", "1.25", &["--method", "penalty"][..]),
+    // model, duration straight through, duration of the run that "stopped", output every,
+    // checkpoint every (steps), other arguments
+    for (model, long, short, every, ckpt, extra) in [
+        (DP, "2", "1.25", "10", "300", &["--method", "staggered"][..]),
+        (DP, "2", "1.25", "10", "300", &["--method", "baumgarte"][..]),
+        (DP, "2", "1.25", "10", "300", &["--method", "penalty"][..]),
+        (
+            DP,
+            "2",
+            "1.25",
+            "10",
+            "300",
+            &["--method", "coordinate_partitioning"][..],
+        ),
+        (
+            DP,
+            "2",
+            "1.25",
+            "10",
+            "300",
+            &["--method", "natural_partitioning"][..],
+        ),
+        (
+            DP,
+            "2",
+            "1.25",
+            "10",
+            "300",
+            &["--method", "implicit_trapezoid"][..],
+        ),
+        // a closed loop whose locks engage
+        (
+            "models/deployment_arm.mbd",
+            "1.5",
+            "0.9",
+            "10",
+            "300",
+            &[][..],
+        ),
         // beams: element states, the .vtp series and its index
-        ("models/cantilever.mbd", "0.02", "0.013", &[][..]),
+        (
+            "models/cantilever.mbd",
+            "0.02",
+            "0.013",
+            "50",
+            "1000",
+            &[][..],
+        ),
+        // meshes: J2 plasticity past yield (about 7 ms), the .vtu series and its index
+        (
+            "models/plastic_bar.mbd",
+            "0.009",
+            "0.0085",
+            "200",
+            "2000",
+            &[][..],
+        ),
+        // a mesh tied to a swinging body
+        (
+            "models/mesh_on_pendulum.mbd",
+            "0.02",
+            "0.013",
+            "100",
+            "1000",
+            &[][..],
+        ),
     ] {
         let straight = dir.join("straight");
         let cut = dir.join("cut");
+        let _ = std::fs::remove_dir_all(&straight);
         let _ = std::fs::remove_dir_all(&cut);
+        let common = ["--every", every, "--checkpoint-every", ckpt];
         let with = |d: &'static str| [&["--duration", d][..], &common[..], extra].concat();
         let (ok, e) = run(model, &straight, &with(long));
         assert!(ok, "{model}: {e}");
@@ -95,13 +157,16 @@ fn a_run_continued_from_its_checkpoint_is_the_run_made_straight_through() {
         assert!(o.status.success(), "{model}: {stderr}");
         assert!(stderr.contains("restarting from"), "{stderr}");
         same_output(&straight, &cut);
-        if model.contains("cantilever") {
-            let last = std::fs::read_dir(straight.join("beams")).unwrap().count();
-            let name = format!("beams/beams_{:06}.vtp", last - 1);
-            assert_eq!(
-                std::fs::read(straight.join(&name)).unwrap(),
-                std::fs::read(cut.join(&name)).unwrap(),
-                "{name}"
+        for (series, ext) in [("beams", "vtp"), ("mesh", "vtu")] {
+            if !straight.join(series).exists() {
+                continue;
+            }
+            let last = std::fs::read_dir(straight.join(series)).unwrap().count();
+            let name = format!("{series}/{series}_{:06}.{ext}", last - 1);
+            assert!(
+                std::fs::read(straight.join(&name)).unwrap()
+                    == std::fs::read(cut.join(&name)).unwrap(),
+                "{model}: {name} differs"
             );
         }
     }

@@ -845,7 +845,7 @@ pub fn run<S: System>(sys: &S, cfg: &RunConfig, obs: &mut dyn Observer) -> RunRe
                             c.last_wall = std::time::Instant::now();
                             if !persisted {
                                 c.off = true;
-                                obs.notice(&format!("warning: method {} cannot write checkpoints yet: this run writes none (the staggered family can: staggered, baumgarte, penalty)", cfg.method.name()));
+                                obs.notice(&format!("warning: method {} cannot write checkpoints: this run writes none", cfg.method.name()));
                             } else if let Err(e) = synced {
                                 c.off = true;
                                 obs.notice(&format!(
