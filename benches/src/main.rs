@@ -8,6 +8,7 @@
 //! cargo run --release -p mbdc-bench -- beams [ROUNDS]      beams: cost per element-step against a rigid body's step and the core's peak
 //! cargo run --release -p mbdc-bench -- meshes [SCALE] [ROUNDS]  meshes: element rates against the measured bandwidth and flop rate, and the assembly strategies
 //! cargo run --release -p mbdc-bench -- meshes-assembly [SCALE] [ROUNDS]  the assembly strategies side by side alone
+//! cargo run --release -p mbdc-bench -- checkpoints [ROUNDS]  checkpoint save, write and restart read against a step and the disk
 //! ```
 //!
 //! Timings are interleaved rounds (every candidate once per round, in turn) and the best of
@@ -31,6 +32,7 @@ use mbdc_runtime::interp::Interp;
 use mbdc_runtime::scene::MethodSpec;
 use mbdc_runtime::system::{ConstraintEval, Need, System, Wrench};
 
+mod checkpoints;
 mod meshes;
 
 fn root() -> PathBuf {
@@ -56,6 +58,9 @@ fn main() {
             args.get(1).and_then(|s| s.parse().ok()).unwrap_or(0.1),
             args.get(2).and_then(|s| s.parse().ok()).unwrap_or(3),
         ),
+        Some("checkpoints") => {
+            checkpoints::checkpoints(args.get(1).and_then(|s| s.parse().ok()).unwrap_or(3))
+        }
         Some("meshes-assembly") => meshes::assembly_only(
             args.get(1).and_then(|s| s.parse().ok()).unwrap_or(0.1),
             args.get(2).and_then(|s| s.parse().ok()).unwrap_or(3),
@@ -74,7 +79,7 @@ fn main() {
         ),
         _ => {
             eprintln!(
-                "usage: mbdc-bench steps [ROUNDS] | size | startup [MBDC] | profile [STEPS] | beams [ROUNDS] | meshes [SCALE] [ROUNDS] | meshes-assembly [SCALE] [ROUNDS]"
+                "usage: mbdc-bench steps [ROUNDS] | size | startup [MBDC] | profile [STEPS] | beams [ROUNDS] | meshes [SCALE] [ROUNDS] | meshes-assembly [SCALE] [ROUNDS] | checkpoints [ROUNDS]"
             );
             std::process::exit(2);
         }
