@@ -1,14 +1,16 @@
 //! The meshes in the page: their boundary surface (faces of one element only; every
 //! element of a 2-D mesh; bars as lines), and per shown frame the displacement of the
 //! surface's nodes and the von Mises stress averaged to them from the elements around
-//! each node, read from the run's `.vtu` series (`mesh.pvd` lists this run's files).
+//! each node, read from the run's `.vtu` series (`mesh.pvd` lists this run's files). The
+//! faces of tetrahedra and hexahedra are the scene's own ([`ElementKind::faces`]: VTK's node
+//! order is mbdc's).
 
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
 use serde::Serialize;
 
-use mbdc_runtime::scene::Scene;
+use mbdc_runtime::scene::{ElementKind, Scene};
 
 use super::frames::{FrameBlock, FrameLayout};
 use super::ViewError;
@@ -19,17 +21,6 @@ const VTK_TRIANGLE: u8 = 5;
 const VTK_QUAD: u8 = 9;
 const VTK_TETRA: u8 = 10;
 const VTK_HEXAHEDRON: u8 = 12;
-
-/// Faces of a tetrahedron and of a hexahedron (VTK node order), outward.
-const TET_FACES: [&[usize]; 4] = [&[0, 2, 1], &[0, 1, 3], &[1, 2, 3], &[0, 3, 2]];
-const HEX_FACES: [&[usize]; 6] = [
-    &[0, 3, 2, 1],
-    &[4, 5, 6, 7],
-    &[0, 1, 5, 4],
-    &[1, 2, 6, 5],
-    &[2, 3, 7, 6],
-    &[3, 0, 4, 7],
-];
 
 /// One mesh of the page (the JSON `meshes` entry).
 #[derive(Clone, Debug, PartialEq, Serialize)]
@@ -216,8 +207,10 @@ impl MeshGeometry {
                         tris.push([nodes[0], nodes[1], nodes[2]]);
                         tris.push([nodes[0], nodes[2], nodes[3]]);
                     }
-                    (VTK_TETRA, 4) => TET_FACES.iter().for_each(|f| add_face(f)),
-                    (VTK_HEXAHEDRON, 8) => HEX_FACES.iter().for_each(|f| add_face(f)),
+                    (VTK_TETRA, 4) => ElementKind::Tet4.faces().iter().for_each(|f| add_face(f)),
+                    (VTK_HEXAHEDRON, 8) => {
+                        ElementKind::Hex8.faces().iter().for_each(|f| add_face(f))
+                    }
                     (t, n) => {
                         return Err(bad(&format!(
                             "cell {c} has type {t} with {n} points, which mbdc does not write"

@@ -10,6 +10,7 @@
 
 use serde::Serialize;
 
+use mbdc_runtime::math;
 use mbdc_runtime::scene::{BodyRef, ForceKind, JointKind, Scene, Shape};
 
 use super::frames::{FrameBlock, FrameLayout};
@@ -129,24 +130,9 @@ pub(crate) struct SceneInfo {
     pub notes: Vec<String>,
 }
 
-/// Rotate `v` by the unit quaternion `q = [w, x, y, z]`.
+/// Rotate `v` by the unit quaternion `q = [w, x, y, z]` (the runtime's rotation).
 fn rotate(q: [f64; 4], v: [f64; 3]) -> [f64; 3] {
-    let [w, x, y, z] = q;
-    let u = [x, y, z];
-    let cross = |a: [f64; 3], b: [f64; 3]| {
-        [
-            a[1] * b[2] - a[2] * b[1],
-            a[2] * b[0] - a[0] * b[2],
-            a[0] * b[1] - a[1] * b[0],
-        ]
-    };
-    let t = cross(u, v).map(|c| 2.0 * c);
-    let ut = cross(u, t);
-    [
-        v[0] + w * t[0] + ut[0],
-        v[1] + w * t[1] + ut[1],
-        v[2] + w * t[2] + ut[2],
-    ]
+    math::rotate(&math::quat(q), &math::vec3(&v)).into()
 }
 
 /// The uniform solid with mass `m` and inertia diagonal `d` (see the module doc).

@@ -36,6 +36,20 @@ pub fn f64(v: &mut dyn StateVisitor, name: &'static str, x: &mut f64) {
     v.f64s(name, std::slice::from_mut(x));
 }
 
+/// Several floats kept in separate fields, as one item: `fields(v)` is visited once,
+/// in the order given.
+pub fn f64_fields<const N: usize>(
+    v: &mut dyn StateVisitor,
+    name: &'static str,
+    fields: [&mut f64; N],
+) {
+    let mut x: [f64; N] = std::array::from_fn(|i| *fields[i]);
+    v.f64s(name, &mut x);
+    for (f, x) in fields.into_iter().zip(x) {
+        *f = x;
+    }
+}
+
 /// One counter.
 pub fn u64(v: &mut dyn StateVisitor, name: &'static str, x: &mut u64) {
     v.u64s(name, std::slice::from_mut(x));

@@ -340,35 +340,24 @@ struct EnergyWatch {
 impl EnergyWatch {
     /// Save or load (for a checkpoint) everything the watch carries, its work watch included.
     fn persist(&mut self, v: &mut dyn StateVisitor) {
-        let mut x = [
-            self.e0,
-            self.in_play,
-            self.pe_lo,
-            self.pe_hi,
-            self.kinetic,
-            self.potential,
-            self.max_change,
-            self.floor,
-            self.impacts,
-            self.error,
-            self.saved.0,
-            self.saved.1,
-        ];
-        v.f64s("energy_watch", &mut x);
-        [
-            self.e0,
-            self.in_play,
-            self.pe_lo,
-            self.pe_hi,
-            self.kinetic,
-            self.potential,
-            self.max_change,
-            self.floor,
-            self.impacts,
-            self.error,
-            self.saved.0,
-            self.saved.1,
-        ] = x;
+        persist::f64_fields(
+            v,
+            "energy_watch",
+            [
+                &mut self.e0,
+                &mut self.in_play,
+                &mut self.pe_lo,
+                &mut self.pe_hi,
+                &mut self.kinetic,
+                &mut self.potential,
+                &mut self.max_change,
+                &mut self.floor,
+                &mut self.impacts,
+                &mut self.error,
+                &mut self.saved.0,
+                &mut self.saved.1,
+            ],
+        );
         persist::bool(v, "energy_watch.loss_checked", &mut self.loss_checked);
         let mut g = u64::from(self.kink_grace);
         persist::u64(v, "energy_watch.kink_grace", &mut g);
@@ -557,19 +546,16 @@ fn persist_loop(
     persist::u64(v, "run.steps", &mut report.steps);
     persist::f64(v, "run.t_end", &mut report.t_end);
     persist::u32(v, "run.retries", &mut report.retries);
-    let mut x = [
-        report.max_violation.0,
-        report.max_relative_violation.0,
-        report.max_relative_violation.2,
-        report.max_energy_drift,
-    ];
-    v.f64s("run.maxima", &mut x);
-    [
-        report.max_violation.0,
-        report.max_relative_violation.0,
-        report.max_relative_violation.2,
-        report.max_energy_drift,
-    ] = x;
+    persist::f64_fields(
+        v,
+        "run.maxima",
+        [
+            &mut report.max_violation.0,
+            &mut report.max_relative_violation.0,
+            &mut report.max_relative_violation.2,
+            &mut report.max_energy_drift,
+        ],
+    );
     let mut j = [
         joint(&report.max_violation.1),
         joint(&report.max_relative_violation.1),

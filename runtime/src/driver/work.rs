@@ -124,21 +124,17 @@ impl WorkWatch {
         self.seen = seen as u8;
         persist::bool(v, "work.first", &mut self.first);
         for b in [&mut self.now, &mut self.saved.booked] {
-            let mut x = [
-                b.forces,
-                b.drivers,
-                b.max_forces,
-                b.max_drivers,
-                b.allowance,
-            ];
-            v.f64s("work.booked", &mut x);
-            [
-                b.forces,
-                b.drivers,
-                b.max_forces,
-                b.max_drivers,
-                b.allowance,
-            ] = x;
+            persist::f64_fields(
+                v,
+                "work.booked",
+                [
+                    &mut b.forces,
+                    &mut b.drivers,
+                    &mut b.max_forces,
+                    &mut b.max_drivers,
+                    &mut b.allowance,
+                ],
+            );
         }
         persist::f64(v, "work.saved.t", &mut self.saved.t);
         persist::f64(v, "work.saved.power", &mut self.saved.power);

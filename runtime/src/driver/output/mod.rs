@@ -676,23 +676,18 @@ impl Stats {
         ];
         v.f64s("out.e0", &mut e0);
         self.e0 = (e0[0] != 0.0).then_some(e0[1]);
-        let mut x = [
-            self.k_max,
-            self.v_min,
-            self.v_max,
-            self.w_max,
-            self.max_drift,
-            self.max_violation,
-        ];
-        v.f64s("out.maxima", &mut x);
-        [
-            self.k_max,
-            self.v_min,
-            self.v_max,
-            self.w_max,
-            self.max_drift,
-            self.max_violation,
-        ] = x;
+        persist::f64_fields(
+            v,
+            "out.maxima",
+            [
+                &mut self.k_max,
+                &mut self.v_min,
+                &mut self.v_max,
+                &mut self.w_max,
+                &mut self.max_drift,
+                &mut self.max_violation,
+            ],
+        );
         let mut j = self.max_violation_joint.map_or(u64::MAX, |j| j as u64);
         persist::u64(v, "out.max_violation_joint", &mut j);
         self.max_violation_joint = (j != u64::MAX).then_some(j as usize);
