@@ -6,9 +6,21 @@
 //! Every compiled scene is a crate `scenes/<scene>-<key>/` of one cargo workspace,
 //! `<target>/mbdc/ws/` (`<target>`: the mbdc source workspace's `target/` folder, or
 //! `CARGO_TARGET_DIR`; `MBDC_BUILD_DIR` names the workspace folder directly). The workspace has
-//! a copy of the mbdc workspace's `Cargo.lock`, a path dependency on the runtime and its own
-//! target folder, so the runtime is compiled once (release) for all scenes and each scene
+//! a copy of the mbdc workspace's `Cargo.lock` and its release profile, and a path dependency
+//! on the runtime, so the runtime is compiled once (release) for all scenes and each scene
 //! compiles only its own small crate.
+//!
+//! ## One runtime build for mbdc and its scenes
+//!
+//! When this program is itself a release build in a cargo target folder of its sources (as
+//! `cargo mbdc run` makes it: `<T>/release/mbdc`), the scenes are built into that same
+//! folder `<T>`, and each scene crate also depends on the `mbdc` library. Its dependency graph
+//! then contains mbdc's own, with the same versions (the lock file), features (unified over
+//! the same packages) and profile, so cargo finds every unit of the runtime already built
+//! by the build of mbdc and compiles only the scene's crate: on a fresh clone the first
+//! compiled run no longer builds the runtime a second time (BENCHMARKS.md, "First run").
+//! Otherwise (a debug build, an installed program, `MBDC_BUILD_DIR`) the workspace keeps its
+//! own target folder `ws/target`.
 //!
 //! `<key>` is the [structure key](mbdc_runtime::compiled::Spec::key) of the scene with the
 //! mbdc version: a scene whose numbers change (a `--set` override, an edited length) reuses
@@ -46,10 +58,34 @@ fn source_root() -> Option<PathBuf> {
         .then(|| root.canonicalize().unwrap_or_else(|_| root.to_path_buf()))
 }
 
+/// The cargo target folder this program was built in, when its build can be shared with the
+/// scenes (see the module doc): the program is `<T>/release/mbdc` of a target folder `<T>`
+/// (cargo marks those with `CACHEDIR.TAG`) holding the build of the sources it came from, and
+/// `MBDC_BUILD_DIR` does not ask for a workspace of its own.
+fn shared_target() -> Option<PathBuf> {
+    if std::env::var_os("MBDC_BUILD_DIR").is_some() || cfg!(debug_assertions) {
+        return None;
+    }
+    source_root()?;
+    let exe = std::env::current_exe().ok()?.canonicalize().ok()?;
+    let release = exe.parent()?;
+    if release.file_name()? != "release" {
+        return None;
+    }
+    let target = release.parent()?;
+    target
+        .join("CACHEDIR.TAG")
+        .is_file()
+        .then(|| target.to_path_buf())
+}
+
 /// The shared workspace folder (see the module doc).
 pub fn workspace_dir() -> PathBuf {
     if let Some(d) = std::env::var_os("MBDC_BUILD_DIR") {
         return PathBuf::from(d);
+    }
+    if let Some(t) = shared_target() {
+        return t.join("mbdc/ws");
     }
     if let Some(t) = std::env::var_os("CARGO_TARGET_DIR") {
         return PathBuf::from(t).join("mbdc/ws");
@@ -64,14 +100,58 @@ pub fn workspace_dir() -> PathBuf {
     cache.join("mbdc/ws")
 }
 
-/// The runtime dependency line of the workspace.
-fn runtime_dependency() -> String {
+/// The dependency lines of the workspace: the runtime, and with the sources the `mbdc`
+/// library (which scenes depend on only when they share this program's build).
+fn workspace_dependencies() -> String {
     match source_root() {
         Some(root) => format!(
-            "mbdc-runtime = {{ path = {:?} }}",
-            root.join("runtime").to_string_lossy()
+            "mbdc-runtime = {{ path = {:?} }}\nmbdc = {{ path = {:?} }}",
+            root.join("runtime").to_string_lossy(),
+            root.join("cli").to_string_lossy()
         ),
         None => format!("mbdc-runtime = \"={VERSION}\""),
+    }
+}
+
+/// The `[profile.release…]` tables of the mbdc workspace's `Cargo.toml`, copied verbatim so
+/// that a scene's units are the units mbdc's build made (a different profile is a different
+/// build); the runtime's own choice when the sources are gone.
+fn release_profile() -> String {
+    let manifest = source_root()
+        .and_then(|root| std::fs::read_to_string(root.join("Cargo.toml")).ok())
+        .unwrap_or_default();
+    release_profile_of(&manifest)
+}
+
+/// The `[profile.release]` and `[profile.release.*]` tables of a manifest, verbatim.
+fn release_profile_of(manifest: &str) -> String {
+    // The manifest as tables: a header line and the lines up to the next header.
+    let mut tables: Vec<Vec<&str>> = vec![Vec::new()];
+    for line in manifest.lines() {
+        if line.trim_start().starts_with('[') {
+            tables.push(Vec::new());
+        }
+        tables.last_mut().expect("one table at least").push(line);
+    }
+    let kept: Vec<String> = tables
+        .iter()
+        .filter(|t| {
+            let head = t.first().map_or("", |l| l.trim());
+            head.starts_with("[profile.release]") || head.starts_with("[profile.release.")
+        })
+        .map(|t| {
+            // Comments and blank lines at a table's end introduce the next table.
+            let end = t
+                .iter()
+                .rposition(|l| !l.trim().is_empty() && !l.trim_start().starts_with('#'))
+                .map_or(0, |i| i + 1);
+            t[..end].join("\n") + "\n"
+        })
+        .collect();
+    if kept.is_empty() {
+        "[profile.release]\ndebug = false\n".to_string()
+    } else {
+        kept.join("\n")
     }
 }
 
@@ -84,6 +164,8 @@ pub struct SceneCrate {
     pub dir: PathBuf,
     /// Package and binary name.
     pub package: String,
+    /// The target folder shared with mbdc's own build, if any (else the workspace's own).
+    pub target: Option<PathBuf>,
 }
 
 pub(crate) fn write(path: &Path, text: &str) -> Result<(), String> {
@@ -99,7 +181,9 @@ pub(crate) fn write(path: &Path, text: &str) -> Result<(), String> {
 /// Write the workspace files (if needed) and the scene's crate (if it does not exist).
 pub fn prepare(scene: &Scene) -> Result<SceneCrate, String> {
     let ws = workspace_dir();
-    let dep = runtime_dependency();
+    let target = shared_target();
+    let shared = target.is_some();
+    let dep = workspace_dependencies();
     let plan = codegen::plan(scene, None).map_err(|e| e.to_string())?;
     let module = codegen::module_name(&scene.name);
     let mut h = Fnv::new();
@@ -107,6 +191,7 @@ pub fn prepare(scene: &Scene) -> Result<SceneCrate, String> {
         format!("{:016x}", plan.key()).as_str(),
         VERSION,
         dep.as_str(),
+        if shared { "shared" } else { "own" },
     ] {
         h.write(part.as_bytes());
         h.write(&[0]);
@@ -121,26 +206,26 @@ pub fn prepare(scene: &Scene) -> Result<SceneCrate, String> {
             "# Written by mbdc: the shared workspace of compiled scenes (one crate per scene\n\
              # structure under scenes/). Safe to delete; mbdc rewrites it.\n\
              [workspace]\nresolver = \"2\"\nmembers = [\"scenes/*\"]\n\n\
-             [workspace.dependencies]\n{dep}\n\n\
-             [profile.release]\ndebug = false\n"
+             [workspace.dependencies]\n{dep}\n\n{profile}",
+            profile = release_profile()
         ),
     )?;
     // The lock file of the mbdc workspace, so that the runtime's dependencies are the tested
-    // versions; copied again when it changes.
+    // versions — and, when sharing mbdc's build, the very units it built. Copied before every
+    // build: cargo prunes a lock to the packages its builds used and would later resolve the
+    // pruned ones afresh (to newer versions, other units).
     if let Some(root) = source_root() {
         if let Ok(lock) = std::fs::read_to_string(root.join("Cargo.lock")) {
-            let mut lh = Fnv::new();
-            lh.write(lock.as_bytes());
-            let stamp = format!("{:016x}", lh.finish());
-            let stamp_path = ws.join(".lock-source");
-            if std::fs::read_to_string(&stamp_path).ok().as_deref() != Some(stamp.as_str()) {
-                write(&ws.join("Cargo.lock"), &lock)?;
-                write(&stamp_path, &stamp)?;
-            }
+            write(&ws.join("Cargo.lock"), &lock)?;
         }
     }
     if dir.join(".complete").is_file() {
-        return Ok(SceneCrate { ws, dir, package });
+        return Ok(SceneCrate {
+            ws,
+            dir,
+            package,
+            target,
+        });
     }
     let json_path = dir.join("scene.json");
     let opts = Options {
@@ -155,9 +240,15 @@ pub fn prepare(scene: &Scene) -> Result<SceneCrate, String> {
         &format!(
             "# Written by mbdc for the scene `{}` (structure key {:016x}).\n\
              [package]\nname = \"{package}\"\nversion = \"0.0.0\"\nedition = \"2021\"\npublish = false\n\n\
-             [dependencies]\nmbdc-runtime.workspace = true\n",
+             [dependencies]\nmbdc-runtime.workspace = true\n{}",
             scene.name,
-            g.key
+            g.key,
+            if shared {
+                "# the mbdc library, only for its dependency graph: the runtime units of mbdc's build\n\
+                 mbdc.workspace = true\n"
+            } else {
+                ""
+            }
         ),
     )?;
     write(
@@ -168,7 +259,12 @@ pub fn prepare(scene: &Scene) -> Result<SceneCrate, String> {
         ),
     )?;
     write(&dir.join(".complete"), "")?;
-    Ok(SceneCrate { ws, dir, package })
+    Ok(SceneCrate {
+        ws,
+        dir,
+        package,
+        target,
+    })
 }
 
 /// Why a build failed.
@@ -191,11 +287,14 @@ pub fn build(c: &SceneCrate, quiet: bool) -> Result<PathBuf, BuildFailure> {
         .arg(c.ws.join("Cargo.toml"))
         .arg("-p")
         .arg(&c.package)
-        .env_remove("CARGO_TARGET_DIR")
         .env("CARGO_TERM_COLOR", "never")
         .stdin(Stdio::null())
         .stdout(Stdio::piped())
         .stderr(Stdio::piped());
+    match &c.target {
+        Some(t) => cmd.env("CARGO_TARGET_DIR", t),
+        None => cmd.env_remove("CARGO_TARGET_DIR"),
+    };
     let mut child = cmd.spawn().map_err(|e| BuildFailure {
         reason: format!("cannot run cargo: {e}"),
         details:
@@ -213,7 +312,12 @@ pub fn build(c: &SceneCrate, quiet: bool) -> Result<PathBuf, BuildFailure> {
     });
     // Without a terminal the spinner draws nothing: a line per phase instead (a CI log, a
     // pipe), so that a first build's minutes are not silent.
-    let mut phases = (!quiet && !std::io::stderr().is_terminal()).then(PhaseLines::default);
+    let mut phases = (!quiet && !std::io::stderr().is_terminal()).then(|| PhaseLines {
+        start: std::time::Instant::now(),
+        built: false,
+        runtime: 0,
+        scene: false,
+    });
     let mut stderr = child.stderr.take().expect("piped");
     let err_thread = std::thread::spawn(move || {
         let mut s = String::new();
@@ -308,10 +412,11 @@ pub fn build(c: &SceneCrate, quiet: bool) -> Result<PathBuf, BuildFailure> {
 /// runtime's crates start building (a first run), and what was built in how long when the
 /// build ends — nothing for a warm run, which builds nothing. (cargo reports a crate when it
 /// is done, so the scene's own crate, built last, shows only in the closing line.)
-#[derive(Default)]
 struct PhaseLines {
-    /// When the first crate finished building.
-    start: Option<std::time::Instant>,
+    /// When cargo was started.
+    start: std::time::Instant,
+    /// Whether anything was built (a warm run builds nothing and prints nothing).
+    built: bool,
     /// Runtime (dependency) crates built.
     runtime: usize,
     /// Whether the scene's crate was built.
@@ -332,18 +437,21 @@ impl PhaseLines {
             }
             self.runtime += 1;
         }
-        self.start.get_or_insert_with(std::time::Instant::now);
+        self.built = true;
     }
 
     /// The build ended.
     fn done(self) {
-        if let Some(t0) = self.start {
+        if self.built {
             let what = match (self.runtime, self.scene) {
                 (0, _) => "the scene's program".to_string(),
                 (n, true) => format!("{n} runtime crate(s) and the scene's program"),
                 (n, false) => format!("{n} runtime crate(s)"),
             };
-            eprintln!("built {what} in {:.1} s", t0.elapsed().as_secs_f64());
+            eprintln!(
+                "built {what} in {:.1} s",
+                self.start.elapsed().as_secs_f64()
+            );
         }
     }
 }
@@ -379,4 +487,32 @@ pub(crate) fn unescape(s: &str) -> String {
         }
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::release_profile_of;
+
+    #[test]
+    fn the_release_profile_is_copied_table_by_table() {
+        let manifest =
+            "[workspace]\nmembers = [\"a\"]\n\n[profile.release]\ndebug = \"line-tables-only\"\n\n\
+                        # the test profile\n[profile.test]\nopt-level = 2\n\n\
+                        [profile.release.package.foo]\nopt-level = 1\n# trailing\n";
+        assert_eq!(
+            release_profile_of(manifest),
+            "[profile.release]\ndebug = \"line-tables-only\"\n\n[profile.release.package.foo]\nopt-level = 1\n"
+        );
+        assert_eq!(
+            release_profile_of("[package]\nname = \"x\"\n"),
+            "[profile.release]\ndebug = false\n"
+        );
+    }
+
+    /// The workspace's own manifest: what the scenes get is what mbdc's build used.
+    #[test]
+    fn this_workspace_has_a_release_profile_to_share() {
+        let manifest = include_str!("../../Cargo.toml");
+        assert!(release_profile_of(manifest).starts_with("[profile.release]\n"));
+    }
 }
