@@ -19,6 +19,7 @@ mod child_signals;
 mod commands;
 mod plot;
 mod render;
+mod replace_file;
 mod scene_crate;
 mod step_gate;
 mod view;
@@ -53,17 +54,23 @@ enum Command {
     View(commands::view::Args),
 }
 
-/// Restores the default action of SIGPIPE (end the process quietly), as Unix tools do.
+/// Restores the default action of SIGPIPE (end the process quietly), as Unix tools do, and
+/// ignores SIGXFSZ.
 ///
 /// Rust's runtime ignores SIGPIPE, so a write to a closed pipe (`mbdc check f.mbd | head -1`)
 /// returns an error and `println!` panics on it. With the default action the process ends at
 /// that write, like `cat` or `grep`, on stdout and stderr alike (progress bars included).
+///
+/// SIGXFSZ (a file grew past the process's file-size limit, `ulimit -f`) would end the
+/// process at once and lose the run's report; ignored, the write fails with `EFBIG` and the
+/// run stops with a report naming the file, as on a full disk.
 #[cfg(unix)]
 fn quiet_on_closed_pipe() {
     // SAFETY: called first thing in `main`, before any other thread exists; `signal` with
-    // SIG_DFL installs no handler.
+    // SIG_DFL or SIG_IGN installs no handler.
     unsafe {
         libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+        libc::signal(libc::SIGXFSZ, libc::SIG_IGN);
     }
 }
 

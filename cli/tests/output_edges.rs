@@ -40,7 +40,8 @@ fn a_closed_pipe_ends_quietly() {
     let chain = root().join("models/chain.mbd");
     let pendulum = root().join("models/pendulum.mbd");
     let out_dir = scratch("closed-pipe");
-    let runs: [Vec<&str>; 3] = [
+    let sweep_dir = out_dir.join("sweep");
+    let runs: [Vec<&str>; 4] = [
         vec!["check", s(&chain)],
         vec!["fmt", "--check", s(&chain)],
         vec![
@@ -51,6 +52,15 @@ fn a_closed_pipe_ends_quietly() {
             "0.01",
             "-o",
             s(&out_dir),
+        ],
+        vec![
+            "sweep",
+            "--interp",
+            s(&pendulum),
+            "--steps",
+            "0.01,0.005",
+            "-o",
+            s(&sweep_dir),
         ],
     ];
     for args in runs {

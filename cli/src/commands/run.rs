@@ -387,7 +387,9 @@ pub fn simulate<S: System>(sys: &S, scene: &Scene, args: &Args) -> ExitCode {
         }
         Err(e) => {
             eprintln!("error: writing the output folder {}: {e}", dir.display());
-            ExitCode::FAILURE
+            // a folder that cannot be written takes no plots either
+            eprintln!("  no plots: the folder's files end where the error left them; `mbdc plot {}` draws them once there is room", dir.display());
+            return ExitCode::FAILURE;
         }
     };
     // plots of whatever frames were written, also when the run stopped early

@@ -362,7 +362,7 @@ impl Figure {
     /// [`PlotError::Io`] with the path, or a drawing error.
     pub fn save(&self, path: &Path) -> Result<(), PlotError> {
         let svg = self.render()?;
-        std::fs::write(path, svg).map_err(|source| PlotError::Io {
+        crate::replace_file::replace_file(path, svg.as_bytes()).map_err(|source| PlotError::Io {
             path: path.to_path_buf(),
             source,
         })

@@ -257,9 +257,7 @@ pub fn write_view(dir: &Path, opts: ViewOptions) -> Result<ViewWritten, ViewErro
     };
     let html = page::render(&data, &block.values)?;
     let path = dir.join("view.html");
-    let tmp = dir.join(".view.html.tmp");
-    std::fs::write(&tmp, html.as_bytes())
-        .and_then(|()| std::fs::rename(&tmp, &path))
+    crate::replace_file::replace_file(&path, html.as_bytes())
         .map_err(|e| ViewError(format!("{}: cannot write: {e}", path.display())))?;
     notes.extend(info.notes);
     Ok(ViewWritten {

@@ -309,12 +309,25 @@ impl Observer for Reporter<'_> {
 /// Run the program of a compiled model `M` with the process arguments (see the module
 /// doc). The `main` of a generated crate is `mbdc_runtime::app::main::<Model>()`.
 pub fn main<M: CompiledModel>() -> ExitCode {
+    ignore_file_size_signal();
     match Args::parse(std::env::args().skip(1)) {
         Ok(a) => run_with::<M>(&a),
         Err(e) => {
             eprintln!("error: {e}");
             ExitCode::from(2)
         }
+    }
+}
+
+/// Ignore SIGXFSZ: past the file-size limit (`ulimit -f`) a write then fails with `EFBIG` and
+/// the run stops with a report naming the file, as on a full disk, instead of the process
+/// ending at once without one.
+fn ignore_file_size_signal() {
+    #[cfg(unix)]
+    // SAFETY: called first thing in `main`, before the program starts threads; SIG_IGN
+    // installs no handler.
+    unsafe {
+        libc::signal(libc::SIGXFSZ, libc::SIG_IGN);
     }
 }
 

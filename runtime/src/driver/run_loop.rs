@@ -1419,6 +1419,9 @@ impl Observer for ToWriter<'_> {
         self.inner.notice(m);
     }
     fn stop_requested(&mut self) -> Option<&'static str> {
+        if self.error.is_some() || self.writer.has_failed() {
+            return Some(OUTPUT_FAILED);
+        }
         self.inner.stop_requested()
     }
     fn save_output(&mut self, v: &mut dyn StateVisitor) -> Result<(), String> {
@@ -1430,6 +1433,11 @@ impl Observer for ToWriter<'_> {
         Ok(())
     }
 }
+
+/// What stops a run whose output can no longer be written ([`Interruption::by`]): nothing it
+/// would compute after that could be kept. [`run_to_dir`] then returns the write error as
+/// [`OutputError::RunStopped`](crate::driver::output::OutputError::RunStopped).
+pub const OUTPUT_FAILED: &str = "an output write error";
 
 /// Run `sys` and write its output folder (`bodies.csv`, `energy.csv`, `constraints.csv` as
 /// `spec` asks, and `summary.json`, also when the run fails or is interrupted). Frames are
@@ -1534,11 +1542,16 @@ pub fn run_to_dir<S: System>(
             .insert("mesh_energy".into(), serde_json::Value::Object(terms));
     }
     let ToWriter { writer, error, .. } = obs;
+    let stopped = |e| crate::driver::output::OutputError::RunStopped {
+        source: Box::new(e),
+        t: report.t_end,
+        step: report.steps,
+    };
     if let Some(e) = error {
         let _ = writer.finish(&summary);
-        return Err(e);
+        return Err(stopped(e));
     }
-    let summary = writer.finish(&summary)?;
+    let summary = writer.finish(&summary).map_err(stopped)?;
     Ok((report, summary))
 }
 

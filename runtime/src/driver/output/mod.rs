@@ -521,6 +521,19 @@ pub enum OutputError {
         /// The output folder.
         dir: PathBuf,
     },
+    /// A write failed during a run, which then stopped: the error, and where the run was.
+    #[error(
+        "{source}\n  the run stopped at t = {t} s (step {step}); every file keeps the same frames, up to the last batch written before the error"
+    )]
+    RunStopped {
+        /// The write error.
+        #[source]
+        source: Box<OutputError>,
+        /// Time the run had reached, s.
+        t: f64,
+        /// Steps the run had taken.
+        step: u64,
+    },
 }
 
 impl OutputError {
@@ -537,6 +550,7 @@ impl OutputError {
         match self {
             OutputError::Io { path, .. } | OutputError::Json { path, .. } => path,
             OutputError::Thread { dir } => dir,
+            OutputError::RunStopped { source, .. } => source.path(),
         }
     }
 }
@@ -624,6 +638,12 @@ impl CsvFile {
             ));
         }
         self.file.write_all(self.buf.as_bytes())
+    }
+
+    /// Cut the file back to its first `len` bytes (a batch of the other files failed).
+    fn rollback(&mut self, len: u64) {
+        let _ = self.file.set_len(len);
+        self.written = len;
     }
 
     /// Write the pending lines. On error, truncate back to the last complete batch.
@@ -847,10 +867,24 @@ impl Worker {
             return;
         }
         let mut err = None;
+        // Each file's length before this batch: when one file's write fails, the files
+        // written before it in this batch are cut back too, so that every file ends at the
+        // same frame.
+        let mut before = [0u64; 5];
+        for (b, c) in before.iter_mut().zip(self.files()) {
+            *b = c.written;
+        }
+        let mut done = 0;
         for c in self.files() {
             if let Err(e) = c.flush() {
                 err = Some(e);
                 break;
+            }
+            done += 1;
+        }
+        if err.is_some() {
+            for (b, c) in before.iter().zip(self.files()).take(done) {
+                c.rollback(*b);
             }
         }
         if err.is_none() {
@@ -1185,6 +1219,12 @@ impl OutputWriter {
             return Err(self.current_error());
         }
         written.map(|()| s)
+    }
+
+    /// Whether a write has failed (the next [`OutputWriter::submit`] returns the error): a
+    /// run stops then, since nothing more it computes can be kept.
+    pub fn has_failed(&self) -> bool {
+        self.failed.load(Ordering::Acquire)
     }
 
     /// The run description given at creation.

@@ -412,9 +412,17 @@ fn creation_errors_name_the_path() {
 /// A write error in the middle of a run (simulated: the file accepts only so many bytes,
 /// the last write is cut mid-line): the file is truncated back to its last complete batch
 /// and stays valid CSV, the error names the file, nothing more is written, and finish
-/// still writes summary.json and returns the error.
+/// still writes summary.json and returns the error. Whichever file fails — the first one
+/// written in a batch or a later one, whose batch-mates were already written — every file
+/// ends at the same frame.
 #[test]
 fn write_error_mid_run_keeps_written_data() {
+    for failing in ["bodies.csv", "energy.csv", "constraints.csv"] {
+        write_error_mid_run_in(failing);
+    }
+}
+
+fn write_error_mid_run_in(failing: &str) {
     let dir = tempfile::tempdir().unwrap();
     let layout = layout();
     let mut w = OutputWriter::create(dir.path(), &layout, &ALL, meta()).unwrap();
@@ -426,14 +434,14 @@ fn write_error_mid_run_keeps_written_data() {
         w.submit(f).unwrap();
     }
     // Wait until the writer has flushed it (the queue runs empty quickly).
-    let path = dir.path().join("bodies.csv");
+    let path = dir.path().join(failing);
     let t0 = std::time::Instant::now();
     while read_csv(&path).1.len() < 10 {
         assert!(t0.elapsed().as_secs() < 10, "writer did not flush");
         std::thread::sleep(std::time::Duration::from_millis(5));
     }
     let good = std::fs::metadata(&path).unwrap().len();
-    w.limit_file_bytes_for_test("bodies.csv", good + 100);
+    w.limit_file_bytes_for_test(failing, good + 100);
     let mut err = None;
     for step in 10..10_000 {
         let mut f = w.frame();
@@ -445,15 +453,22 @@ fn write_error_mid_run_keeps_written_data() {
     }
     let e = err.expect("the simulated disk-full error reaches submit");
     assert_eq!(e.path(), path);
-    assert!(e.to_string().contains("bodies.csv"), "{e}");
+    assert!(e.to_string().contains(failing), "{e}");
     let e2 = w.finish(&Summary::started(&meta())).unwrap_err();
     assert_eq!(e2.path(), path);
     let (_, rows) = read_csv(&path);
     assert!(rows.len() >= 10);
-    assert!(std::fs::read_to_string(&path).unwrap().ends_with('\n'));
-    // The other files stopped at the same frame and are valid too.
-    let (_, erows) = read_csv(&dir.path().join("energy.csv"));
-    assert_eq!(erows.len(), rows.len());
+    // Every file is valid and stopped at the same frame.
+    for name in ["bodies.csv", "energy.csv", "constraints.csv"] {
+        let p = dir.path().join(name);
+        assert!(
+            std::fs::read_to_string(&p).unwrap().ends_with('\n'),
+            "{failing}: {name}"
+        );
+        let (_, r) = read_csv(&p);
+        assert_eq!(r.len(), rows.len(), "{failing} failed: {name}");
+        assert_eq!(r.last().map(|x| x[0]), rows.last().map(|x| x[0]), "{name}");
+    }
     assert!(Summary::read(&dir.path().join("summary.json")).is_ok());
 }
 
