@@ -1269,11 +1269,19 @@ fn write_summary(dir: &Path, s: &Summary) -> Result<(), OutputError> {
     })?;
     let mut f =
         File::create(&tmp).map_err(|e| OutputError::io(OutputErrorKind::Create, &tmp, e))?;
-    f.write_all(text.as_bytes())
+    let written = f
+        .write_all(text.as_bytes())
         .and_then(|()| f.write_all(b"\n"))
-        .map_err(|e| OutputError::io(OutputErrorKind::Write, &tmp, e))?;
+        .map_err(|e| OutputError::io(OutputErrorKind::Write, &tmp, e));
     drop(f);
-    std::fs::rename(&tmp, &path).map_err(|e| OutputError::io(OutputErrorKind::Write, &path, e))
+    let renamed = written.and_then(|()| {
+        std::fs::rename(&tmp, &path).map_err(|e| OutputError::io(OutputErrorKind::Write, &path, e))
+    });
+    if renamed.is_err() {
+        // a full disk leaves the summary of the start, not an empty temporary beside it
+        let _ = std::fs::remove_file(&tmp);
+    }
+    renamed
 }
 
 #[cfg(test)]
