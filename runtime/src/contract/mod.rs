@@ -11,12 +11,14 @@
 //! - [`mesh_layout`]: finite-element meshes flattened for the explicit method (`MeshLayout`),
 //!   and [`mesh_plan`]: the assembly strategies and their plans.
 //! - [`math`]: rotation math (Euler parameters, rotation matrices, the Cayley update).
+//! - [`fnv`]: FNV-1a, the stable hash of scene keys and checkpoint identities.
 //! - [`persist`]: the state a run carries between steps, saved and loaded by one visitor
 //!   (checkpoints and bit-identical restart).
 //!
 //! **Imports nothing else of the crate.** Everything above builds on these types; nothing
 //! here may know a kernel, an integrator or a writer.
 
+pub mod fnv;
 pub mod joint_geom;
 pub mod joint_kernel;
 pub mod math;

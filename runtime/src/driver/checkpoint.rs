@@ -69,11 +69,9 @@ impl Identity {
         let mut s = scene.clone();
         s.simulate.duration = 0.0;
         let json = serde_json::to_string(&s).unwrap_or_default();
-        let mut h: u64 = 0xcbf2_9ce4_8422_2325;
-        for b in json.bytes() {
-            h ^= u64::from(b);
-            h = h.wrapping_mul(0x0100_0000_01b3);
-        }
+        let mut hasher = crate::contract::fnv::Fnv::new();
+        hasher.write(json.as_bytes());
+        let h = hasher.finish();
         Identity {
             mbdc: env!("CARGO_PKG_VERSION").into(),
             model: scene.name.clone(),
