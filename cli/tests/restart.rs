@@ -317,3 +317,40 @@ fn an_unwritable_checkpoint_folder_stops_the_run_with_a_report() {
     assert!(f["time"].as_f64().unwrap() > 0.0);
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// Checkpoint options out of range, and a restart with nothing to restart from, are one
+/// error each before the run starts (exit code 1, no frame written), saying what is expected.
+#[test]
+fn bad_checkpoint_options_are_refused_before_the_run() {
+    let dir = scratch("checkpoint-options");
+    let cases: [(&[&str], &str); 5] = [
+        (
+            &["--checkpoint-every", "0"],
+            "`--checkpoint-every` must be at least 1 step",
+        ),
+        (
+            &["--checkpoint-seconds", "-1"],
+            "`--checkpoint-seconds` must be positive and finite, got -1",
+        ),
+        (
+            &["--checkpoint-seconds", "NaN"],
+            "`--checkpoint-seconds` must be positive and finite, got NaN",
+        ),
+        (
+            &["--checkpoint-every", "10", "--keep-checkpoints", "0"],
+            "`--keep-checkpoints` must be at least 1",
+        ),
+        (&["--restart"], "checkpoint"),
+    ];
+    for (k, (extra, expected)) in cases.iter().enumerate() {
+        let out = dir.join(format!("case{k}"));
+        let (ok, e) = run("models/pendulum.mbd", &out, extra);
+        assert!(!ok, "{extra:?} was accepted");
+        assert!(e.contains(expected), "{extra:?}: {e}");
+        assert!(!e.contains("panicked"), "{extra:?}: {e}");
+        assert!(
+            !out.join("bodies.csv").exists(),
+            "{extra:?}: the run started before refusing"
+        );
+    }
+}

@@ -95,7 +95,7 @@ pub struct Args {
     pub checkpoint_every: Option<u64>,
     /// Write a checkpoint at the first output frame at least this many seconds of wall time
     /// after the last one.
-    #[arg(long, value_name = "SECONDS")]
+    #[arg(long, value_name = "SECONDS", allow_negative_numbers = true)]
     pub checkpoint_seconds: Option<f64>,
     /// Keep the newest K checkpoints (default 2).
     #[arg(long, value_name = "K")]
