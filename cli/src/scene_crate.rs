@@ -10,17 +10,19 @@
 //! on the runtime, so the runtime is compiled once (release) for all scenes and each scene
 //! compiles only its own small crate.
 //!
-//! ## One runtime build for mbdc and its scenes
+//! ## What is shared with mbdc's own build
 //!
 //! When this program is itself a release build in a cargo target folder of its sources (as
-//! `cargo mbdc run` makes it: `<T>/release/mbdc`), the scenes are built into that same
-//! folder `<T>`, and each scene crate also depends on the `mbdc` library. Its dependency graph
-//! then contains mbdc's own, with the same versions (the lock file), features (unified over
-//! the same packages) and profile, so cargo finds every unit of the runtime already built
-//! by the build of mbdc and compiles only the scene's crate: on a fresh clone the first
-//! compiled run no longer builds the runtime a second time (BENCHMARKS.md, "First run").
-//! Otherwise (a debug build, an installed program, `MBDC_BUILD_DIR`) the workspace keeps its
-//! own target folder `ws/target`.
+//! `cargo mbdc run` makes it: `<T>/release/mbdc`), the scenes are built into that same folder
+//! `<T>`, with the mbdc workspace's lock file and release profile, and each scene crate
+//! declares [`FEATURE_MIRROR`]: the features mbdc's own build turns on in crates the runtime
+//! uses too. The scene's dependency graph then gives every crates.io crate the versions,
+//! features and profile of mbdc's build, so cargo finds them built and compiles only the
+//! runtime and the scene's crate. (The runtime itself is compiled again: cargo names a path
+//! crate's build by its path relative to the workspace root, which differs between the two
+//! workspaces.) A first compiled run on a fresh clone no longer builds some 150 crates a
+//! second time (BENCHMARKS.md, "First run"). Otherwise (a debug build, an installed program,
+//! `MBDC_BUILD_DIR`) the workspace keeps its own target folder `ws/target`.
 //!
 //! `<key>` is the [structure key](mbdc_runtime::compiled::Spec::key) of the scene with the
 //! mbdc version: a scene whose numbers change (a `--set` override, an edited length) reuses
@@ -100,18 +102,35 @@ pub fn workspace_dir() -> PathBuf {
     cache.join("mbdc/ws")
 }
 
-/// The dependency lines of the workspace: the runtime, and with the sources the `mbdc`
-/// library (which scenes depend on only when they share this program's build).
-fn workspace_dependencies() -> String {
+/// The runtime dependency line of the workspace.
+fn runtime_dependency() -> String {
     match source_root() {
         Some(root) => format!(
-            "mbdc-runtime = {{ path = {:?} }}\nmbdc = {{ path = {:?} }}",
-            root.join("runtime").to_string_lossy(),
-            root.join("cli").to_string_lossy()
+            "mbdc-runtime = {{ path = {:?} }}",
+            root.join("runtime").to_string_lossy()
         ),
         None => format!("mbdc-runtime = \"={VERSION}\""),
     }
 }
+
+/// What a scene crate that shares mbdc's build declares besides the runtime, only for the
+/// features: those mbdc's own build (its command line, compiler and plots) turns on in crates
+/// the runtime uses too. Without them those crates — and all that depend on them — would be
+/// other units, built a second time. `syn` is a build dependency because the runtime uses
+/// it through its derive macros, which run on the host. The test
+/// `the_feature_mirror_matches_mbdcs_build` compares the two graphs with `cargo tree` and
+/// names what to add here when a dependency of mbdc changes.
+pub const FEATURE_MIRROR: &str = "\
+# Only for their features: what mbdc's own build turns on in crates the runtime shares with
+# it, so that cargo reuses the crates mbdc's build compiled.
+bitflags = { version = \"2\", features = [\"std\"] }
+num-traits = \"0.2\"
+once_cell = \"1\"
+signal-hook = { version = \"0.4\", default-features = false, features = [\"iterator\"] }
+
+[build-dependencies]
+syn = { version = \"3\", features = [\"full\", \"extra-traits\", \"fold\", \"visit\"] }
+";
 
 /// The `[profile.release…]` tables of the mbdc workspace's `Cargo.toml`, copied verbatim so
 /// that a scene's units are the units mbdc's build made (a different profile is a different
@@ -183,7 +202,7 @@ pub fn prepare(scene: &Scene) -> Result<SceneCrate, String> {
     let ws = workspace_dir();
     let target = shared_target();
     let shared = target.is_some();
-    let dep = workspace_dependencies();
+    let dep = runtime_dependency();
     let plan = codegen::plan(scene, None).map_err(|e| e.to_string())?;
     let module = codegen::module_name(&scene.name);
     let mut h = Fnv::new();
@@ -243,12 +262,7 @@ pub fn prepare(scene: &Scene) -> Result<SceneCrate, String> {
              [dependencies]\nmbdc-runtime.workspace = true\n{}",
             scene.name,
             g.key,
-            if shared {
-                "# the mbdc library, only for its dependency graph: the runtime units of mbdc's build\n\
-                 mbdc.workspace = true\n"
-            } else {
-                ""
-            }
+            if shared { FEATURE_MIRROR } else { "" }
         ),
     )?;
     write(
@@ -491,7 +505,94 @@ pub(crate) fn unescape(s: &str) -> String {
 
 #[cfg(test)]
 mod tests {
-    use super::release_profile_of;
+    use super::{release_profile, release_profile_of, runtime_dependency, FEATURE_MIRROR};
+    use std::collections::BTreeSet;
+    use std::path::Path;
+
+    /// `cargo tree` of `package` in the workspace `manifest`: one line per crate, its
+    /// version and features.
+    fn graph(manifest: &Path, package: &str) -> BTreeSet<String> {
+        let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
+        let out = std::process::Command::new(cargo)
+            .args([
+                "tree",
+                "--offline",
+                "-e",
+                "normal,build",
+                "--prefix",
+                "none",
+            ])
+            .args(["-f", "{p} {f}", "-p", package, "--manifest-path"])
+            .arg(manifest)
+            .output()
+            .expect("cargo runs");
+        assert!(
+            out.status.success(),
+            "cargo tree: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        String::from_utf8_lossy(&out.stdout)
+            .lines()
+            .map(|l| l.trim_end_matches(" (*)").trim_end().to_string())
+            .filter(|l| !l.is_empty())
+            .collect()
+    }
+
+    /// A scene crate that shares mbdc's build must give every crate it has in common with
+    /// mbdc's build the same version and features, or cargo builds it (and everything above
+    /// it) a second time: every crate of the scene's graph, with its features, is in the
+    /// graph of `mbdc` itself. When this fails after a dependency of mbdc changed, add to
+    /// `FEATURE_MIRROR` what the message shows mbdc's build has.
+    #[test]
+    fn the_feature_mirror_matches_mbdcs_build() {
+        let root = Path::new(super::SOURCE_ROOT);
+        let mbdc = graph(&root.join("Cargo.toml"), "mbdc");
+        let ws = tempfile::tempdir().expect("temp dir");
+        let w = |p: &str, text: &str| {
+            let path = ws.path().join(p);
+            std::fs::create_dir_all(path.parent().unwrap()).unwrap();
+            std::fs::write(path, text).unwrap();
+        };
+        w(
+            "Cargo.toml",
+            &format!(
+                "[workspace]\nresolver = \"2\"\nmembers = [\"scene\"]\n\n\
+                 [workspace.dependencies]\n{}\n\n{}",
+                runtime_dependency(),
+                release_profile()
+            ),
+        );
+        w(
+            "Cargo.lock",
+            &std::fs::read_to_string(root.join("Cargo.lock")).unwrap(),
+        );
+        w(
+            "scene/Cargo.toml",
+            &format!(
+                "[package]\nname = \"mirror-scene\"\nversion = \"0.0.0\"\nedition = \"2021\"\n\n\
+                 [dependencies]\nmbdc-runtime.workspace = true\n{FEATURE_MIRROR}"
+            ),
+        );
+        w("scene/src/main.rs", "fn main() {}\n");
+        let scene = graph(&ws.path().join("Cargo.toml"), "mirror-scene");
+        let missing: Vec<String> = scene
+            .iter()
+            .filter(|l| !l.starts_with("mirror-scene ") && !mbdc.contains(*l))
+            .map(|l| {
+                let name = l.split(' ').next().unwrap_or("");
+                let there: Vec<&String> = mbdc
+                    .iter()
+                    .filter(|m| m.split(' ').next() == Some(name))
+                    .collect();
+                format!("{l}    (mbdc's build: {there:?})")
+            })
+            .collect();
+        assert!(
+            missing.is_empty(),
+            "crates a scene would build again, with other features than mbdc's build:\n{}",
+            missing.join("\n")
+        );
+    }
 
     #[test]
     fn the_release_profile_is_copied_table_by_table() {

@@ -63,7 +63,7 @@ const CRATES: &[(&str, &str)] = &[
     ("compiler", "lib.rs"),
     ("runtime", "lib.rs"),
     ("macros", "lib.rs"),
-    ("cli", "lib.rs"),
+    ("cli", "main.rs"),
 ];
 
 /// A module's path inside its crate, `[]` for the crate root.
