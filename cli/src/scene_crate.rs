@@ -356,10 +356,10 @@ pub fn build(c: &SceneCrate, quiet: bool) -> Result<PathBuf, BuildFailure> {
                 }
                 if let Some(s) = &spinner {
                     if name == c.package || name == c.package.replace('-', "_") {
-                        s.set_message("building scene (first run)");
+                        s.set_message("building scene (first run; --interp runs without building)");
                     } else if v["fresh"].as_bool() == Some(false) {
                         s.set_message(format!(
-                            "building the runtime for compiled scenes (once): {name}"
+                            "building the runtime for compiled scenes (once; --interp runs without building): {name}"
                         ));
                     }
                 }
@@ -377,7 +377,7 @@ pub fn build(c: &SceneCrate, quiet: bool) -> Result<PathBuf, BuildFailure> {
             _ => {
                 if let Some(s) = &spinner {
                     if s.message().is_empty() {
-                        s.set_message("building scene (first run)");
+                        s.set_message("building scene (first run; --interp runs without building)");
                     }
                 }
             }
@@ -447,7 +447,9 @@ impl PhaseLines {
             self.scene = true;
         } else {
             if self.runtime == 0 {
-                eprintln!("building the runtime for compiled scenes (once; a few minutes)…");
+                eprintln!(
+                    "building the runtime for compiled scenes (once; a minute or more — --interp runs without building)…"
+                );
             }
             self.runtime += 1;
         }

@@ -170,7 +170,7 @@ fn a_first_build_prints_its_phases_without_a_terminal() {
         .expect("mbdc runs");
     let e = String::from_utf8_lossy(&out.stderr);
     assert!(
-        e.contains("building the runtime for compiled scenes (once; a few minutes)…"),
+        e.contains("building the runtime for compiled scenes (once; a minute or more — --interp runs without building)…"),
         "{e}"
     );
     assert!(e.contains("built 2 runtime crate(s) in "), "{e}");
