@@ -64,8 +64,11 @@
 //! not depend on where the potential's zero is once anything has moved.
 
 mod csv;
+pub mod exodus;
+mod exodus_read;
 mod frame_pool;
 mod json;
+mod netcdf3;
 mod scene_file;
 pub mod size_estimate;
 mod vtk;
@@ -90,7 +93,7 @@ use std::thread::JoinHandle;
 use serde::{Deserialize, Serialize};
 
 use crate::contract::persist::{self, StateVisitor};
-use crate::contract::scene::OutputSpec;
+use crate::contract::scene::{OutputFormat, OutputSpec};
 use crate::contract::system::{Layout, Pose, RowKind, Twist};
 
 pub use csv::{
@@ -739,6 +742,8 @@ pub struct OutputPosition {
     /// Frames of the beams' and the meshes' series.
     vtk_frames: u64,
     vtu_frames: u64,
+    /// Frames of `results.exo`.
+    exo_frames: u64,
     /// What the writer measured over the frames (the summary's maxima).
     stats: Stats,
 }
@@ -749,6 +754,7 @@ impl OutputPosition {
         v.u64s("out.lens", &mut self.lens);
         persist::u64(v, "out.vtk_frames", &mut self.vtk_frames);
         persist::u64(v, "out.vtu_frames", &mut self.vtu_frames);
+        persist::u64(v, "out.exo_frames", &mut self.exo_frames);
         self.stats.persist(v);
     }
 
@@ -778,6 +784,7 @@ struct Worker {
     vtk: Option<vtk::BeamSeries>,
     mesh_energy: Option<CsvFile>,
     vtu: Option<vtu::MeshSeries>,
+    exo: Option<exodus::ExodusSeries>,
     stats: Stats,
     failed: Arc<AtomicBool>,
     error: Arc<Mutex<Option<OutputError>>>,
@@ -836,6 +843,12 @@ impl Worker {
                 return;
             }
         }
+        if let Some(x) = &mut self.exo {
+            if let Err(e) = x.write_frame(f) {
+                self.fail(e);
+                return;
+            }
+        }
         let big = self.files().any(|c| c.buf.len() >= BATCH_BYTES);
         if big {
             self.flush();
@@ -863,6 +876,11 @@ impl Worker {
                 err = v.write_index().err();
             }
         }
+        if err.is_none() {
+            if let Some(x) = &mut self.exo {
+                err = x.write_index().err();
+            }
+        }
         if let Some(e) = err {
             self.fail(e);
         }
@@ -880,6 +898,7 @@ impl Worker {
             ],
             vtk_frames: self.vtk.as_ref().map_or(0, |v| v.frames()),
             vtu_frames: self.vtu.as_ref().map_or(0, |v| v.frames()),
+            exo_frames: self.exo.as_ref().map_or(0, |x| x.frames()),
             stats: self.stats.clone(),
         }
     }
@@ -997,8 +1016,15 @@ impl OutputWriter {
         let constraints = csv_file(spec.constraints, "constraints.csv", 2, &|| {
             constraints_header(layout)
         })?;
-        let beams = csv_file(!layout.beams.is_empty(), "beams.csv", 3, &beams_header)?;
-        let vtk = (!layout.beams.is_empty())
+        let exodus = spec.format == OutputFormat::Exodus;
+        let series = spec.format == OutputFormat::Vtk;
+        let beams = csv_file(
+            !layout.beams.is_empty() && !exodus,
+            "beams.csv",
+            3,
+            &beams_header,
+        )?;
+        let vtk = (!layout.beams.is_empty() && series)
             .then(|| match at {
                 Some(p) => vtk::BeamSeries::resume(dir, p.vtk_frames),
                 None => vtk::BeamSeries::create(dir),
@@ -1010,12 +1036,26 @@ impl OutputWriter {
             4,
             &csv::mesh_energy_header,
         )?;
-        let vtu = (!layout.meshes.is_empty())
+        let vtu = (!layout.meshes.is_empty() && series)
             .then(|| match at {
                 Some(p) => vtu::MeshSeries::resume(dir, layout, p.vtu_frames),
                 None => vtu::MeshSeries::create(dir, layout),
             })
             .transpose()?;
+        let exo = if exodus {
+            match at {
+                Some(p) => exodus::ExodusSeries::resume(
+                    dir,
+                    layout,
+                    &meta.model,
+                    spec.partitions,
+                    p.exo_frames,
+                )?,
+                None => exodus::ExodusSeries::create(dir, layout, &meta.model, spec.partitions)?,
+            }
+        } else {
+            None
+        };
         write_summary(dir, &Summary::started(&meta))?;
 
         let pool_size = (POOL_BYTES / Frame::bytes(layout)).clamp(2, POOL_MAX);
@@ -1050,6 +1090,7 @@ impl OutputWriter {
             vtk,
             mesh_energy,
             vtu,
+            exo,
             stats: at.map_or_else(Stats::default, |p| p.stats.clone()),
             failed: failed.clone(),
             error: error.clone(),

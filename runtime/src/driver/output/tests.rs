@@ -54,6 +54,8 @@ const ALL: OutputSpec = OutputSpec {
     bodies: true,
     energy: true,
     constraints: true,
+    format: crate::contract::scene::OutputFormat::Vtk,
+    partitions: 0,
 };
 
 /// Awkward values: extremes, subnormals, signed zero, many digits.
@@ -246,6 +248,7 @@ fn only_requested_files() {
         bodies: false,
         energy: true,
         constraints: false,
+        ..OutputSpec::default()
     };
     let w = OutputWriter::create(dir.path(), &layout(), &spec, meta()).unwrap();
     w.finish(&Summary::started(&meta())).unwrap();
