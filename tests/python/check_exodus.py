@@ -19,7 +19,7 @@ import numpy as np
 
 
 def names(ds, var):
-    return ["".join(c.decode() for c in row if c != b"").strip() for row in ds.variables[var][:].data]
+    return [str(s).strip() for s in netCDF4.chartostring(ds.variables[var][:])]
 
 
 def main():
