@@ -56,8 +56,9 @@ fn run(
         step: cfg.step,
         duration: cfg.duration,
     };
-    let (report, _) = run_loop::run_to_dir(&sys, &cfg, meta, &scene.simulate.output, &dir, &mut Quiet)
-        .expect("output");
+    let (report, _) =
+        run_loop::run_to_dir(&sys, &cfg, meta, &scene.simulate.output, &dir, &mut Quiet)
+            .expect("output");
     assert!(report.finished, "{model}: {:?}", report.failure);
     dir
 }
@@ -73,7 +74,11 @@ fn csv(path: &Path) -> (Vec<String>, Vec<Vec<f64>>) {
         .collect();
     let rows = lines
         // (beams.csv names the beam in a column: NaN there)
-        .map(|l| l.split(',').map(|x| x.trim().parse().unwrap_or(f64::NAN)).collect())
+        .map(|l| {
+            l.split(',')
+                .map(|x| x.trim().parse().unwrap_or(f64::NAN))
+                .collect()
+        })
         .collect();
     (head, rows)
 }
@@ -82,7 +87,9 @@ fn csv(path: &Path) -> (Vec<String>, Vec<Vec<f64>>) {
 fn vtu_array(path: &Path, name: &str) -> Vec<f64> {
     let text = std::fs::read_to_string(path).expect("vtu");
     let tag = format!("Name=\"{name}\"");
-    let at = text.find(&tag).unwrap_or_else(|| panic!("{name} in {}", path.display()));
+    let at = text
+        .find(&tag)
+        .unwrap_or_else(|| panic!("{name} in {}", path.display()));
     let body = &text[at..];
     let body = &body[body.find('>').expect("tag end") + 1..];
     let body = &body[..body.find("</DataArray>").expect("array end")];
@@ -111,24 +118,30 @@ fn check_mesh(exo: &ExodusFile, vtu_dir: &Path, parts: usize, plastic: bool, mes
     for frame in 0..exo.frames() {
         let vtu = vtu_dir.join(format!("mesh/mesh_{frame:06}.vtu"));
         for (what, names) in [
-            ("displacement", ["displacement_x", "displacement_y", "displacement_z"]),
+            (
+                "displacement",
+                ["displacement_x", "displacement_y", "displacement_z"],
+            ),
             ("velocity", ["velocity_x", "velocity_y", "velocity_z"]),
         ] {
             let want = vtu_array(&vtu, what);
             for (c, n) in names.iter().enumerate() {
                 let got = exo.nodal(n, frame, parts).expect("nodal");
                 let want_c: Vec<f64> = want.iter().skip(c).step_by(3).copied().collect();
-                assert_eq!(
-                    bits(&got[..mesh_nodes]),
-                    bits(&want_c),
-                    "{n} frame {frame}"
-                );
+                assert_eq!(bits(&got[..mesh_nodes]), bits(&want_c), "{n} frame {frame}");
             }
         }
         let stress = vtu_array(&vtu, "stress");
-        for (c, n) in ["stress_xx", "stress_yy", "stress_zz", "stress_yz", "stress_xz", "stress_xy"]
-            .iter()
-            .enumerate()
+        for (c, n) in [
+            "stress_xx",
+            "stress_yy",
+            "stress_zz",
+            "stress_yz",
+            "stress_xz",
+            "stress_xy",
+        ]
+        .iter()
+        .enumerate()
         {
             let got = elements(exo, n, meshes, frame, parts);
             let want: Vec<f64> = stress.iter().skip(c).step_by(6).copied().collect();
@@ -210,7 +223,10 @@ fn a_mesh_run_written_by_2_partitions_reads_back_bitwise_with_1_and_3() {
     let (model, duration, every) = ("plastic_bar", 2e-3, 50);
     let vtk = run("a", model, duration, every, OutputFormat::Vtk, 0);
     let exo_dir = run("a", model, duration, every, OutputFormat::Exodus, 2);
-    assert!(!exo_dir.join("mesh").exists(), "no per-frame files with exodus");
+    assert!(
+        !exo_dir.join("mesh").exists(),
+        "no per-frame files with exodus"
+    );
     let exo = exodus::read(&exo_dir.join("results.exo")).expect("readable");
     let m = exo.manifest().expect("a manifest");
     assert_eq!(m.partitions, 2);
@@ -285,9 +301,13 @@ fn a_file_cut_mid_frame_reads_up_to_its_last_complete_frame() {
     bad.slices[1].offset += 8;
     std::fs::write(&mpath, serde_json::to_string(&bad).unwrap()).unwrap();
     let e = exodus::read(&path).expect_err("refused").to_string();
-    assert!(e.contains("manifest.json") && e.contains("not where"), "{e}");
+    assert!(
+        e.contains("manifest.json") && e.contains("not where"),
+        "{e}"
+    );
     let mut gap = m.clone();
-    gap.slices.retain(|s| !(s.partition == 1 && s.variable == "vals_nod_var1"));
+    gap.slices
+        .retain(|s| !(s.partition == 1 && s.variable == "vals_nod_var1"));
     std::fs::write(&mpath, serde_json::to_string(&gap).unwrap()).unwrap();
     let e = exodus::read(&path).expect_err("refused").to_string();
     assert!(e.contains("vals_nod_var1"), "{e}");

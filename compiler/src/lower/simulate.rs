@@ -3,8 +3,7 @@
 use mbdc_dsl::ast::{Expr, ItemKind};
 use mbdc_runtime::scene::{
     BodyReference, Factorization, Fn1, Gyroscopic, LintForm, MethodSpec, OutputFormat, OutputSpec,
-    Reference,
-    Relaxation, Simulate, StaggeredOptions,
+    Reference, Relaxation, Simulate, StaggeredOptions,
 };
 
 use super::body::num;

@@ -252,10 +252,11 @@ impl Args {
                 }
                 "--format" => {
                     let v = value("csv, vtk or exodus")?;
-                    a.settings.format =
-                        Some(crate::contract::scene::OutputFormat::from_name(&v).ok_or_else(
-                            || format!("`--format`: expected csv, vtk or exodus, found `{v}`"),
-                        )?);
+                    a.settings.format = Some(
+                        crate::contract::scene::OutputFormat::from_name(&v).ok_or_else(|| {
+                            format!("`--format`: expected csv, vtk or exodus, found `{v}`")
+                        })?,
+                    );
                 }
                 "--out" | "-o" => a.out = Some(PathBuf::from(value("a folder")?)),
                 "--on-failure" => match value("stop or halve-step")?.as_str() {
@@ -491,5 +492,15 @@ mod tests {
         assert!(Args::parse(["--step".to_string()]).is_err());
         assert!(Args::parse(["--step", "x"].map(String::from)).is_err());
         assert!(Args::parse(["--bogus".to_string()]).is_err());
+        let a = Args::parse(["--format", "exodus"].map(String::from)).unwrap();
+        assert_eq!(
+            a.settings.format,
+            Some(crate::contract::scene::OutputFormat::Exodus)
+        );
+        let e = Args::parse(["--format", "hdf5"].map(String::from)).unwrap_err();
+        assert!(
+            e.contains("csv, vtk or exodus") && e.contains("hdf5"),
+            "{e}"
+        );
     }
 }

@@ -290,7 +290,8 @@ impl Plan {
             first += b.elements();
         }
         for beam in &layout.beams.beams {
-            let els = &layout.beams.elements[beam.first_element..beam.first_element + beam.elements];
+            let els =
+                &layout.beams.elements[beam.first_element..beam.first_element + beam.elements];
             let conn = els
                 .iter()
                 .flat_map(|e| e.nodes.map(|n| (mesh_nodes + n) as i64 + 1))
@@ -351,8 +352,8 @@ impl Plan {
             .collect();
         let num_glo_var = s.dim("num_glo_var", GLOBAL_VARIABLES.len() as u64);
         let num_nod_var = s.dim("num_nod_var", nodal as u64);
-        let num_elem_var = (!elem_names.is_empty())
-            .then(|| s.dim("num_elem_var", elem_names.len() as u64));
+        let num_elem_var =
+            (!elem_names.is_empty()).then(|| s.dim("num_elem_var", elem_names.len() as u64));
 
         s.attr("api_version", AttrValue::Float(vec![8.25]));
         s.attr("version", AttrValue::Float(vec![8.25]));
@@ -377,7 +378,10 @@ impl Plan {
             fixed.push((v, text_rows(&names, NAME_LEN + 1)));
         }
         let v = s.var("coor_names", NcType::Char, &[num_dim, len_name]);
-        fixed.push((v, text_rows(&["X".into(), "Y".into(), "Z".into()], NAME_LEN + 1)));
+        fixed.push((
+            v,
+            text_rows(&["X".into(), "Y".into(), "Z".into()], NAME_LEN + 1),
+        ));
         let mut coord = [0; 3];
         for (c, name) in ["coordx", "coordy", "coordz"].iter().enumerate() {
             coord[c] = s.var(name, NcType::Double, &[num_nodes]);
@@ -844,15 +848,13 @@ impl ExodusSeries {
     }
 
     fn write_manifest(&self) -> Result<(), OutputError> {
-        let text = serde_json::to_string_pretty(&self.manifest()).map_err(|e| {
-            OutputError::Json {
+        let text =
+            serde_json::to_string_pretty(&self.manifest()).map_err(|e| OutputError::Json {
                 path: self.manifest_path.clone(),
                 message: e.to_string(),
-            }
-        })?;
+            })?;
         let tmp = self.manifest_path.with_extension("json.tmp");
-        std::fs::write(&tmp, text + "\n")
-            .map_err(|e| io_err(OutputErrorKind::Write, &tmp, e))?;
+        std::fs::write(&tmp, text + "\n").map_err(|e| io_err(OutputErrorKind::Write, &tmp, e))?;
         std::fs::rename(&tmp, &self.manifest_path)
             .map_err(|e| io_err(OutputErrorKind::Write, &self.manifest_path, e))
     }

@@ -194,9 +194,7 @@ impl ExodusFile {
 
     /// A dimension's length (`None` if absent).
     pub fn dimension(&self, name: &str) -> Option<u64> {
-        self.schema
-            .dim_id(name)
-            .map(|d| self.schema.dims[d].len)
+        self.schema.dim_id(name).map(|d| self.schema.dims[d].len)
     }
 
     fn var(&self, name: &str) -> Result<usize, OutputError> {
@@ -222,7 +220,10 @@ impl ExodusFile {
     fn ints(&self, name: &str) -> Result<Vec<i32>, OutputError> {
         let v = self.var(name)?;
         if self.schema.vars[v].ty != NcType::Int {
-            return Err(bad(&self.path, format!("`{name}` is not an integer variable")));
+            return Err(bad(
+                &self.path,
+                format!("`{name}` is not an integer variable"),
+            ));
         }
         Ok(self
             .bytes(v, 0, 0, self.schema.values(v))?

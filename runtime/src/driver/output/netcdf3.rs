@@ -193,9 +193,7 @@ impl Schema {
             let bytes = self.values(v) * self.vars[v].ty.size();
             self.vars[v].vsize = pad4(bytes);
         }
-        let records = (0..self.vars.len())
-            .filter(|&v| self.is_record(v))
-            .count();
+        let records = (0..self.vars.len()).filter(|&v| self.is_record(v)).count();
         let mut at = self.encode(0).len() as u64;
         for v in 0..self.vars.len() {
             if !self.is_record(v) {
@@ -416,7 +414,9 @@ impl<'a> Reader<'a> {
     }
 
     fn u32(&mut self) -> Result<u32, String> {
-        Ok(u32::from_be_bytes(self.take(4)?.try_into().unwrap_or([0; 4])))
+        Ok(u32::from_be_bytes(
+            self.take(4)?.try_into().unwrap_or([0; 4]),
+        ))
     }
 
     fn skip_pad(&mut self) -> Result<(), String> {
@@ -518,7 +518,9 @@ mod tests {
 
     #[test]
     fn bad_headers_are_refused_in_words() {
-        assert!(Schema::decode(b"HDF5").unwrap_err().contains("not a netCDF"));
+        assert!(Schema::decode(b"HDF5")
+            .unwrap_err()
+            .contains("not a netCDF"));
         assert!(Schema::decode(b"CDF\x01\0\0\0\0")
             .unwrap_err()
             .contains("version 1"));
