@@ -227,6 +227,10 @@ pub(crate) fn read_at(file: &File, buf: &mut [u8], offset: u64) -> std::io::Resu
     }
 }
 
+/// An element block being planned: name, Exodus type, nodes per element, 1-based
+/// connectivity, where its element variables come from (`None`: it has none).
+type BlockDef = (String, &'static str, usize, Vec<i64>, Option<Source>);
+
 /// The file's structure for a layout: the header, the record variables and what fills them.
 struct Plan {
     schema: Schema,
@@ -276,7 +280,7 @@ impl Plan {
         }
         let rigid: Vec<usize> = (0..bodies).filter(|&b| !beam_node[b]).collect();
         // Blocks: (name, type, nodes per element, 1-based connectivity, element source).
-        let mut blocks: Vec<(String, &str, usize, Vec<i64>, Option<Source>)> = Vec::new();
+        let mut blocks: Vec<BlockDef> = Vec::new();
         let mut first = 0;
         for b in &ml.blocks {
             let conn = b.conn.iter().map(|&n| i64::from(n) + 1).collect();
@@ -708,12 +712,12 @@ impl ExodusSeries {
                 let mut x_ref = vec![[0.0; 3]; plan.bodies];
                 if frames > 0 && plan.bodies > 0 {
                     let mut b = vec![0u8; plan.bodies * 8];
-                    for c in 0..3 {
-                        let off = plan.schema.offset(plan.coord[c], 0, plan.mesh_nodes as u64);
+                    for (c, &var) in plan.coord.iter().enumerate() {
+                        let off = plan.schema.offset(var, 0, plan.mesh_nodes as u64);
                         read_at(&file, &mut b, off)
                             .map_err(|e| io_err(OutputErrorKind::Read, &path, e))?;
-                        for (j, x) in b.chunks_exact(8).enumerate() {
-                            x_ref[j][c] = f64::from_be_bytes(x.try_into().unwrap_or([0; 8]));
+                        for (r, x) in x_ref.iter_mut().zip(b.chunks_exact(8)) {
+                            r[c] = f64::from_be_bytes(x.try_into().unwrap_or([0; 8]));
                         }
                     }
                 }

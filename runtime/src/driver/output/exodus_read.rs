@@ -70,11 +70,10 @@ impl ExodusFile {
             }
         };
         let numrecs = u64::from(numrecs);
-        let frames = if schema.record_size == 0 {
-            numrecs
-        } else {
-            numrecs.min(len.saturating_sub(schema.records_begin) / schema.record_size)
-        };
+        let frames = len
+            .saturating_sub(schema.records_begin)
+            .checked_div(schema.record_size)
+            .map_or(numrecs, |whole| numrecs.min(whole));
         let mut f = ExodusFile {
             path: path.to_path_buf(),
             file,

@@ -582,7 +582,7 @@ fn exodus_resume_continues_the_file_bitwise() {
     // A file of another scene is refused on resume, naming it.
     let other = Layout {
         body_names: vec!["x".into()],
-        mass: vec![layout.mass[0].clone()],
+        mass: vec![layout.mass[0]],
         ..layout.clone()
     };
     let e = OutputWriter::resume(restarted.path(), &other, &spec, meta(), &at).unwrap_err();
