@@ -24,11 +24,10 @@
 use std::fs::File;
 use std::path::{Path, PathBuf};
 
-use serde::{Deserialize, Serialize};
-
+pub use super::exodus_manifest::{Manifest, ManifestSlice, MANIFEST_VERSION};
 pub use super::exodus_read::{Block, ExodusFile};
 
-use super::netcdf3::{Attr, AttrValue, NcType, Schema, NUMRECS_OFFSET};
+use super::netcdf3::{read_at, write_at, Attr, AttrValue, NcType, Schema, NUMRECS_OFFSET};
 use super::vtu::von_mises;
 use super::{Frame, OutputError, OutputErrorKind, BEAM_COLUMNS};
 use crate::contract::scene::ElementKind;
@@ -38,8 +37,6 @@ use crate::contract::system::Layout;
 pub const EXODUS_FILE: &str = "results.exo";
 /// The manifest's name in the output folder.
 pub const MANIFEST_FILE: &str = "results.exo.manifest.json";
-/// Version of the manifest's format.
-pub const MANIFEST_VERSION: u32 = 1;
 /// Longest name stored (Exodus `maximum_name_length`).
 const NAME_LEN: u64 = 32;
 
@@ -127,104 +124,12 @@ struct Slice {
     count: u64,
 }
 
-/// One entry of the manifest: what a partition wrote in every frame.
-#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
-pub struct ManifestSlice {
-    /// The partition.
-    pub partition: u32,
-    /// The netCDF variable.
-    pub variable: String,
-    /// First value of the slice (index into the variable's values of one frame).
-    pub start: u64,
-    /// Values in the slice.
-    pub count: u64,
-    /// Byte offset of the slice in frame 0; frame `r`'s is `offset + r · record_size`.
-    pub offset: u64,
-    /// Bytes of the slice.
-    pub length: u64,
-}
-
-/// `results.exo.manifest.json`: who wrote what where (the papers' I/O table).
-#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
-pub struct Manifest {
-    /// [`MANIFEST_VERSION`].
-    pub format_version: u32,
-    /// The data file's name.
-    pub file: String,
-    /// Partitions that wrote it.
-    pub partitions: u32,
-    /// Offset of frame 0 (the end of the fixed data), bytes.
-    pub records_begin: u64,
-    /// Bytes per frame.
-    pub record_size: u64,
-    /// Frames complete when the manifest was written (the header's `numrecs` may be ahead).
-    pub frames_complete: u64,
-    /// The slices, partition by partition.
-    pub slices: Vec<ManifestSlice>,
-}
-
 /// Open an Exodus II file for reading (see [`ExodusFile`]).
 ///
 /// # Errors
 /// As [`ExodusFile::open`].
 pub fn read(path: &Path) -> Result<ExodusFile, OutputError> {
     ExodusFile::open(path)
-}
-
-/// Write `buf` at `offset` of `file`.
-pub(crate) fn write_at(file: &File, buf: &[u8], offset: u64) -> std::io::Result<()> {
-    #[cfg(unix)]
-    {
-        std::os::unix::fs::FileExt::write_all_at(file, buf, offset)
-    }
-    #[cfg(windows)]
-    {
-        let (mut buf, mut offset) = (buf, offset);
-        while !buf.is_empty() {
-            let n = std::os::windows::fs::FileExt::seek_write(file, buf, offset)?;
-            if n == 0 {
-                return Err(std::io::ErrorKind::WriteZero.into());
-            }
-            buf = &buf[n..];
-            offset += n as u64;
-        }
-        Ok(())
-    }
-    #[cfg(not(any(unix, windows)))]
-    {
-        use std::io::{Seek, SeekFrom, Write};
-        let mut f = file;
-        f.seek(SeekFrom::Start(offset))?;
-        f.write_all(buf)
-    }
-}
-
-/// Read exactly `buf.len()` bytes at `offset` of `file`.
-pub(crate) fn read_at(file: &File, buf: &mut [u8], offset: u64) -> std::io::Result<()> {
-    #[cfg(unix)]
-    {
-        std::os::unix::fs::FileExt::read_exact_at(file, buf, offset)
-    }
-    #[cfg(windows)]
-    {
-        let (mut buf, mut offset) = (buf, offset);
-        while !buf.is_empty() {
-            let n = std::os::windows::fs::FileExt::seek_read(file, buf, offset)?;
-            if n == 0 {
-                return Err(std::io::ErrorKind::UnexpectedEof.into());
-            }
-            buf = &mut buf[n..];
-            offset += n as u64;
-        }
-        Ok(())
-    }
-    #[cfg(not(any(unix, windows)))]
-    {
-        use std::io::{Read, Seek, SeekFrom};
-        let mut f = file;
-        f.seek(SeekFrom::Start(offset))?;
-        f.read_exact(buf)
-    }
 }
 
 /// An element block being planned: name, Exodus type, nodes per element, 1-based

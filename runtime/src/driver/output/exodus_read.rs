@@ -8,8 +8,8 @@ use std::collections::BTreeMap;
 use std::fs::File;
 use std::path::{Path, PathBuf};
 
-use super::exodus::{read_at, Manifest, MANIFEST_VERSION};
-use super::netcdf3::{AttrValue, NcType, Schema};
+use super::exodus_manifest::{Manifest, MANIFEST_VERSION};
+use super::netcdf3::{read_at, AttrValue, NcType, Schema};
 use super::{OutputError, OutputErrorKind};
 
 /// An element block of the file.

@@ -65,6 +65,7 @@
 
 mod csv;
 pub mod exodus;
+mod exodus_manifest;
 mod exodus_read;
 mod frame_pool;
 mod json;
