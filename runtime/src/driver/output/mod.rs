@@ -53,7 +53,10 @@
 //! | `mesh_energy.csv` | scenes with meshes: `t, kinetic, strain, hourglass, foundation, external_work, dissipated, plastic, tie_work, half_step, balance` (J): `balance = kinetic + strain + hourglass + foundation − external_work − tie_work + dissipated + plastic + half_step`, constant up to the method's error (`half_step = −(h²/8) Σ m |a|²` makes the kinetic energy that of the half-step velocities, which the central difference conserves; `strain` is the elastic strain energy, `plastic` the plastic work, `tie_work` the work the bodies do on the meshes through ties; tied nodes' kinetic energy is their body's) |
 //! | `beams.csv` | scenes with beams: one row per element and frame, `t, beam, element, s` (arc length of the element's midpoint, unstrained), section forces `N1 N2 N3` (axial, shear 2, shear 3; N), moments `M1 M2 M3` (torsion, bending 2, bending 3; N·m), strains `gamma1 gamma2 gamma3` and curvatures `kappa1 kappa2 kappa3` (1/m), all in the element's convected frame |
 //!
-//! Only the files the [`OutputSpec`] asks for are created.
+//! | `results.exo`, `results.exo.manifest.json` | format `exodus`: every body, beam and mesh frame in one Exodus II file (netCDF-3 64-bit offset) written by partitions at computed offsets, and who wrote what where (see `exodus.rs`, `docs/output.md`); replaces `beams.csv` and the VTK series |
+//!
+//! Only the files the [`OutputSpec`] asks for are created; its `format` chooses between the
+//! VTK series (`vtk`, the default), none (`csv`) and `results.exo` (`exodus`).
 //!
 //! `drift` is the error of the energy balance, `(E − W − E₀) / E_ref`, with `E = K + V` the
 //! total energy, `W` the work column, `E₀` the total energy of the first frame (less its
