@@ -102,6 +102,38 @@ fn staggered_factorization_option() {
 }
 
 #[test]
+fn output_format_and_partitions() {
+    use mbdc_runtime::scene::OutputFormat;
+    let body = "body b { mass 1 kg; inertia sphere(radius: 1 cm) }";
+    let with = |o: &str| {
+        model(body).replace(
+            "simulate { duration 1 s; step 1 ms }",
+            &format!("simulate {{ duration 1 s; step 1 ms; output {{ {o} }} }}"),
+        )
+    };
+    assert_eq!(
+        scene(&model(body)).simulate.output.format,
+        OutputFormat::Vtk
+    );
+    for (word, f) in [
+        ("csv", OutputFormat::Csv),
+        ("vtk", OutputFormat::Vtk),
+        ("exodus", OutputFormat::Exodus),
+    ] {
+        let s = scene(&with(&format!("format {word}; partitions 3")));
+        assert_eq!(s.simulate.output.format, f);
+        assert_eq!(s.simulate.output.partitions, 3);
+    }
+    let e = errors(&with("format exodos"));
+    assert!(
+        e.iter()
+            .any(|(c, m)| c == "mbdc::invalid-value" && m == "unknown output format `exodos`"),
+        "{e:?}"
+    );
+    assert!(!errors(&with("partitions 0")).is_empty());
+}
+
+#[test]
 fn dimension_errors_name_the_units() {
     let e = errors(&model(
         "body b { mass 1 kg; inertia sphere(radius: 1 cm); position (1 m + 2 s, 0, 0) }",

@@ -192,6 +192,7 @@ fn output_frames_do_not_allocate_on_the_simulation_thread() {
         bodies: true,
         energy: true,
         constraints: true,
+        ..OutputSpec::default()
     };
     let meta = RunMeta {
         model: "chain".into(),

@@ -29,7 +29,7 @@ use mbdc_runtime::app::{Settings, Signal, StopSignals, PROTOCOL};
 use mbdc_runtime::interp::Interp;
 use mbdc_runtime::output::{RunMeta, RunStatus, Summary};
 use mbdc_runtime::run_loop::{self, Frame, Observer, RunConfig};
-use mbdc_runtime::scene::{MethodSpec, Scene};
+use mbdc_runtime::scene::{MethodSpec, OutputFormat, Scene};
 use mbdc_runtime::system::System;
 
 use crate::render;
@@ -74,6 +74,11 @@ pub struct Args {
     /// Write a frame every N steps (default: the scene's output setting).
     #[arg(long, value_name = "N")]
     pub every: Option<u32>,
+    /// Output format (default: the scene's `simulate { output { format } }`, else vtk):
+    /// `csv` the CSV files only, `vtk` also a ParaView series of one file per frame for
+    /// beams and meshes, `exodus` one Exodus II file `results.exo` with the small CSV files.
+    #[arg(long, value_parser = clap::builder::PossibleValuesParser::new(OutputFormat::NAMES))]
+    pub format: Option<String>,
     /// Output folder (default: `out/<model name>`).
     #[arg(short = 'o', long = "out", value_name = "DIR")]
     pub out: Option<PathBuf>,
@@ -149,6 +154,7 @@ fn settings(args: &Args) -> Settings {
         step: args.step,
         duration: args.duration,
         every: args.every,
+        format: args.format.as_deref().and_then(OutputFormat::from_name),
         halve_step: args.on_failure == FailurePolicy::HalveStep,
         checkpoint_every: args.checkpoint_every,
         checkpoint_seconds: args.checkpoint_seconds,
@@ -370,7 +376,8 @@ pub fn simulate<S: System>(sys: &S, scene: &Scene, args: &Args) -> ExitCode {
         return ExitCode::FAILURE;
     }
     let mut progress = Progress::new(cfg.duration, args.quiet).stop_on_signals();
-    let result = run_loop::run_to_dir(sys, &cfg, meta, &scene.simulate.output, &dir, &mut progress);
+    let spec = mbdc_runtime::app::output_spec(scene, &settings(args));
+    let result = run_loop::run_to_dir(sys, &cfg, meta, &spec, &dir, &mut progress);
     progress.finish();
     let code = match result {
         Ok((report, summary)) => {
@@ -558,6 +565,9 @@ pub fn run_compiled(scene: &Scene, args: &Args) -> ExitCode {
     }
     if let Some(n) = args.every {
         cmd.arg("--every").arg(n.to_string());
+    }
+    if let Some(f) = &args.format {
+        cmd.arg("--format").arg(f);
     }
     if args.on_failure == FailurePolicy::HalveStep {
         cmd.arg("--on-failure").arg("halve-step");

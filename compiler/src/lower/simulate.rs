@@ -2,8 +2,8 @@
 
 use mbdc_dsl::ast::{Expr, ItemKind};
 use mbdc_runtime::scene::{
-    BodyReference, Factorization, Fn1, Gyroscopic, LintForm, MethodSpec, OutputSpec, Reference,
-    Relaxation, Simulate, StaggeredOptions,
+    BodyReference, Factorization, Fn1, Gyroscopic, LintForm, MethodSpec, OutputFormat, OutputSpec,
+    Reference, Relaxation, Simulate, StaggeredOptions,
 };
 
 use super::body::num;
@@ -17,6 +17,8 @@ use crate::value::{Value, Var};
 const SIM_KEYS: &[Key] = &[one("duration"), one("step"), one("method")];
 const OUTPUT_KEYS: &[Key] = &[
     one("every"),
+    one("format"),
+    one("partitions"),
     Key {
         name: "include",
         min: 1,
@@ -445,6 +447,36 @@ impl<'a> Lowerer<'a> {
         if let Some(e) = props.value("every") {
             match self.count(e, sc, "`every`") {
                 Ok(n) => out.every = n,
+                Err(_) => ok = false,
+            }
+        }
+        if let Some(e) = props.value("format") {
+            match ident_of(e).and_then(OutputFormat::from_name) {
+                Some(f) => out.format = f,
+                None => {
+                    let found = ident_of(e).unwrap_or("this");
+                    let names = OutputFormat::NAMES.join(", ");
+                    let help = match ident_of(e).and_then(|n| {
+                        crate::suggest::closest(n, OutputFormat::NAMES.iter().copied())
+                    }) {
+                        Some(s) => format!("did you mean `{s}`? Formats: {names}"),
+                        None => format!("formats: {names}"),
+                    };
+                    self.report(
+                        Diagnostic::error(
+                            codes::INVALID_VALUE,
+                            format!("unknown output format `{found}`"),
+                        )
+                        .primary(sc.file, e.span, "")
+                        .help(help),
+                    );
+                    ok = false;
+                }
+            }
+        }
+        if let Some(e) = props.value("partitions") {
+            match self.count(e, sc, "`partitions`") {
+                Ok(n) => out.partitions = n,
                 Err(_) => ok = false,
             }
         }

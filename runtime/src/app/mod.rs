@@ -3,6 +3,7 @@
 //!
 //! ```text
 //! scene-program [--scene FILE.json] [--method NAME] [--step S] [--duration S] [--every N]
+//!               [--format csv|vtk|exodus]
 //!               [--out DIR] [--on-failure stop|halve-step] [--assemble] [--progress] [--quiet]
 //!               [--checkpoint-every N] [--checkpoint-seconds S] [--keep-checkpoints K] [--restart]
 //! ```
@@ -10,6 +11,7 @@
 //! - `--scene`: the scene (JSON of a [`Scene`]) with the numbers to run; it must have the
 //!   structure the program was generated for. Default: the scene embedded at generation.
 //! - `--method`, `--step`, `--duration`, `--every`: as `mbdc run` ([`run_config`]).
+//! - `--format`: the output format instead of the scene's ([`output_spec`]).
 //! - `--out`: the output folder (default `out/<model name>`).
 //! - `--checkpoint-every`, `--checkpoint-seconds`, `--keep-checkpoints`, `--restart`:
 //!   checkpoints in `OUT/checkpoints` and continuing from the newest ([`checkpoints`]).
@@ -55,6 +57,8 @@ pub struct Settings {
     pub duration: Option<f64>,
     /// Output every N steps.
     pub every: Option<u32>,
+    /// Output format instead of the scene's (`simulate { output { format } }`).
+    pub format: Option<crate::contract::scene::OutputFormat>,
     /// Retry with half the step on failure (up to 10 times).
     pub halve_step: bool,
     /// Write a checkpoint at the first output frame at least this many steps after the last.
@@ -179,6 +183,15 @@ pub fn run_config<S: System>(sys: &S, scene: &Scene, s: &Settings) -> Result<Run
     })
 }
 
+/// The output the run writes: the scene's, with the format the user chose, if any.
+pub fn output_spec(scene: &Scene, s: &Settings) -> crate::contract::scene::OutputSpec {
+    let mut spec = scene.simulate.output.clone();
+    if let Some(f) = s.format {
+        spec.format = f;
+    }
+    spec
+}
+
 /// The lines `mbdc run --assemble` prints about an assembly.
 pub fn assembly_report(a: &crate::driver::assemble::Assembly) -> Vec<String> {
     let mut v = vec![format!(
@@ -235,6 +248,14 @@ impl Args {
                     a.settings.every = Some(
                         v.parse()
                             .map_err(|_| format!("`--every`: `{v}` is not a step count"))?,
+                    );
+                }
+                "--format" => {
+                    let v = value("csv, vtk or exodus")?;
+                    a.settings.format = Some(
+                        crate::contract::scene::OutputFormat::from_name(&v).ok_or_else(|| {
+                            format!("`--format`: expected csv, vtk or exodus, found `{v}`")
+                        })?,
                     );
                 }
                 "--out" | "-o" => a.out = Some(PathBuf::from(value("a folder")?)),
@@ -413,7 +434,8 @@ pub fn run_with<M: CompiledModel>(args: &Args) -> ExitCode {
     if let Err(e) = crate::driver::output::write_scene(&dir, &scene) {
         return fail(format!("writing the output folder {}: {e}", dir.display()));
     }
-    let result = run_loop::run_to_dir(&sys, &cfg, meta, &scene.simulate.output, &dir, &mut rep);
+    let spec = output_spec(&scene, &args.settings);
+    let result = run_loop::run_to_dir(&sys, &cfg, meta, &spec, &dir, &mut rep);
     // the run is over: a signal ends the program at once again
     drop(signals);
     match result {
@@ -483,5 +505,15 @@ mod tests {
         assert!(Args::parse(["--step".to_string()]).is_err());
         assert!(Args::parse(["--step", "x"].map(String::from)).is_err());
         assert!(Args::parse(["--bogus".to_string()]).is_err());
+        let a = Args::parse(["--format", "exodus"].map(String::from)).unwrap();
+        assert_eq!(
+            a.settings.format,
+            Some(crate::contract::scene::OutputFormat::Exodus)
+        );
+        let e = Args::parse(["--format", "hdf5"].map(String::from)).unwrap_err();
+        assert!(
+            e.contains("csv, vtk or exodus") && e.contains("hdf5"),
+            "{e}"
+        );
     }
 }

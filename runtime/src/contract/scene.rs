@@ -785,6 +785,53 @@ pub struct OutputSpec {
     pub energy: bool,
     /// Write constraint violations and multipliers (`constraints.csv`).
     pub constraints: bool,
+    /// Which files hold the bodies', beams' and meshes' frames (absent in scenes written
+    /// before it existed: the default).
+    #[serde(default)]
+    pub format: OutputFormat,
+    /// Partitions writing `results.exo` (0: chosen from the frame's size and the machine).
+    #[serde(default)]
+    pub partitions: u32,
+}
+
+/// The output format of a run (`simulate { output { format NAME } }`, `--format NAME`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum OutputFormat {
+    /// The CSV files, and for beams and meshes a ParaView series of one `.vtp`/`.vtu` file
+    /// per frame with its `.pvd` index (the default).
+    #[default]
+    Vtk,
+    /// The CSV files only (no per-frame VTK files).
+    Csv,
+    /// One Exodus II file `results.exo` (bodies, beams and meshes, every frame) and its
+    /// manifest, with the small CSV files (`bodies.csv`, `energy.csv`, `constraints.csv`,
+    /// `mesh_energy.csv`); no `beams.csv` and no per-frame VTK files.
+    Exodus,
+}
+
+impl OutputFormat {
+    /// The names, as the language and the command line spell them.
+    pub const NAMES: [&'static str; 3] = ["csv", "vtk", "exodus"];
+
+    /// The format of a name.
+    pub fn from_name(name: &str) -> Option<OutputFormat> {
+        match name {
+            "csv" => Some(OutputFormat::Csv),
+            "vtk" => Some(OutputFormat::Vtk),
+            "exodus" => Some(OutputFormat::Exodus),
+            _ => None,
+        }
+    }
+
+    /// Its name.
+    pub fn name(self) -> &'static str {
+        match self {
+            OutputFormat::Csv => "csv",
+            OutputFormat::Vtk => "vtk",
+            OutputFormat::Exodus => "exodus",
+        }
+    }
 }
 
 impl Default for OutputSpec {
@@ -794,6 +841,8 @@ impl Default for OutputSpec {
             bodies: true,
             energy: true,
             constraints: true,
+            format: OutputFormat::Vtk,
+            partitions: 0,
         }
     }
 }

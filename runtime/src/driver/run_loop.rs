@@ -1817,6 +1817,7 @@ mod tests {
             bodies: true,
             energy: true,
             constraints: true,
+            ..OutputSpec::default()
         };
         let mut obs = StopAt {
             at: 47,

@@ -78,6 +78,7 @@ impl CompiledRunner {
             bodies: true,
             energy: false,
             constraints: false,
+            ..OutputSpec::default()
         };
         let mut r = CompiledRunner {
             program,

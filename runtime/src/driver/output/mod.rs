@@ -53,7 +53,10 @@
 //! | `mesh_energy.csv` | scenes with meshes: `t, kinetic, strain, hourglass, foundation, external_work, dissipated, plastic, tie_work, half_step, balance` (J): `balance = kinetic + strain + hourglass + foundation − external_work − tie_work + dissipated + plastic + half_step`, constant up to the method's error (`half_step = −(h²/8) Σ m |a|²` makes the kinetic energy that of the half-step velocities, which the central difference conserves; `strain` is the elastic strain energy, `plastic` the plastic work, `tie_work` the work the bodies do on the meshes through ties; tied nodes' kinetic energy is their body's) |
 //! | `beams.csv` | scenes with beams: one row per element and frame, `t, beam, element, s` (arc length of the element's midpoint, unstrained), section forces `N1 N2 N3` (axial, shear 2, shear 3; N), moments `M1 M2 M3` (torsion, bending 2, bending 3; N·m), strains `gamma1 gamma2 gamma3` and curvatures `kappa1 kappa2 kappa3` (1/m), all in the element's convected frame |
 //!
-//! Only the files the [`OutputSpec`] asks for are created.
+//! | `results.exo`, `results.exo.manifest.json` | format `exodus`: every body, beam and mesh frame in one Exodus II file (netCDF-3 64-bit offset) written by partitions at computed offsets, and who wrote what where (see `exodus.rs`, `docs/output.md`); replaces `beams.csv` and the VTK series |
+//!
+//! Only the files the [`OutputSpec`] asks for are created; its `format` chooses between the
+//! VTK series (`vtk`, the default), none (`csv`) and `results.exo` (`exodus`).
 //!
 //! `drift` is the error of the energy balance, `(E − W − E₀) / E_ref`, with `E = K + V` the
 //! total energy, `W` the work column, `E₀` the total energy of the first frame (less its
@@ -64,8 +67,12 @@
 //! not depend on where the potential's zero is once anything has moved.
 
 mod csv;
+pub mod exodus;
+mod exodus_manifest;
+mod exodus_read;
 mod frame_pool;
 mod json;
+mod netcdf3;
 mod scene_file;
 pub mod size_estimate;
 mod vtk;
@@ -90,7 +97,7 @@ use std::thread::JoinHandle;
 use serde::{Deserialize, Serialize};
 
 use crate::contract::persist::{self, StateVisitor};
-use crate::contract::scene::OutputSpec;
+use crate::contract::scene::{OutputFormat, OutputSpec};
 use crate::contract::system::{Layout, Pose, RowKind, Twist};
 
 pub use csv::{
@@ -759,6 +766,8 @@ pub struct OutputPosition {
     /// Frames of the beams' and the meshes' series.
     vtk_frames: u64,
     vtu_frames: u64,
+    /// Frames of `results.exo`.
+    exo_frames: u64,
     /// What the writer measured over the frames (the summary's maxima).
     stats: Stats,
 }
@@ -769,6 +778,7 @@ impl OutputPosition {
         v.u64s("out.lens", &mut self.lens);
         persist::u64(v, "out.vtk_frames", &mut self.vtk_frames);
         persist::u64(v, "out.vtu_frames", &mut self.vtu_frames);
+        persist::u64(v, "out.exo_frames", &mut self.exo_frames);
         self.stats.persist(v);
     }
 
@@ -798,6 +808,7 @@ struct Worker {
     vtk: Option<vtk::BeamSeries>,
     mesh_energy: Option<CsvFile>,
     vtu: Option<vtu::MeshSeries>,
+    exo: Option<exodus::ExodusSeries>,
     stats: Stats,
     failed: Arc<AtomicBool>,
     error: Arc<Mutex<Option<OutputError>>>,
@@ -856,6 +867,12 @@ impl Worker {
                 return;
             }
         }
+        if let Some(x) = &mut self.exo {
+            if let Err(e) = x.write_frame(f) {
+                self.fail(e);
+                return;
+            }
+        }
         let big = self.files().any(|c| c.buf.len() >= BATCH_BYTES);
         if big {
             self.flush();
@@ -897,6 +914,11 @@ impl Worker {
                 err = v.write_index().err();
             }
         }
+        if err.is_none() {
+            if let Some(x) = &mut self.exo {
+                err = x.write_index().err();
+            }
+        }
         if let Some(e) = err {
             self.fail(e);
         }
@@ -914,6 +936,7 @@ impl Worker {
             ],
             vtk_frames: self.vtk.as_ref().map_or(0, |v| v.frames()),
             vtu_frames: self.vtu.as_ref().map_or(0, |v| v.frames()),
+            exo_frames: self.exo.as_ref().map_or(0, |x| x.frames()),
             stats: self.stats.clone(),
         }
     }
@@ -1031,8 +1054,15 @@ impl OutputWriter {
         let constraints = csv_file(spec.constraints, "constraints.csv", 2, &|| {
             constraints_header(layout)
         })?;
-        let beams = csv_file(!layout.beams.is_empty(), "beams.csv", 3, &beams_header)?;
-        let vtk = (!layout.beams.is_empty())
+        let exodus = spec.format == OutputFormat::Exodus;
+        let series = spec.format == OutputFormat::Vtk;
+        let beams = csv_file(
+            !layout.beams.is_empty() && !exodus,
+            "beams.csv",
+            3,
+            &beams_header,
+        )?;
+        let vtk = (!layout.beams.is_empty() && series)
             .then(|| match at {
                 Some(p) => vtk::BeamSeries::resume(dir, p.vtk_frames),
                 None => vtk::BeamSeries::create(dir),
@@ -1044,12 +1074,26 @@ impl OutputWriter {
             4,
             &csv::mesh_energy_header,
         )?;
-        let vtu = (!layout.meshes.is_empty())
+        let vtu = (!layout.meshes.is_empty() && series)
             .then(|| match at {
                 Some(p) => vtu::MeshSeries::resume(dir, layout, p.vtu_frames),
                 None => vtu::MeshSeries::create(dir, layout),
             })
             .transpose()?;
+        let exo = if exodus {
+            match at {
+                Some(p) => exodus::ExodusSeries::resume(
+                    dir,
+                    layout,
+                    &meta.model,
+                    spec.partitions,
+                    p.exo_frames,
+                )?,
+                None => exodus::ExodusSeries::create(dir, layout, &meta.model, spec.partitions)?,
+            }
+        } else {
+            None
+        };
         write_summary(dir, &Summary::started(&meta))?;
 
         let pool_size = (POOL_BYTES / Frame::bytes(layout)).clamp(2, POOL_MAX);
@@ -1084,6 +1128,7 @@ impl OutputWriter {
             vtk,
             mesh_energy,
             vtu,
+            exo,
             stats: at.map_or_else(Stats::default, |p| p.stats.clone()),
             failed: failed.clone(),
             error: error.clone(),

@@ -54,6 +54,8 @@ const ALL: OutputSpec = OutputSpec {
     bodies: true,
     energy: true,
     constraints: true,
+    format: crate::contract::scene::OutputFormat::Vtk,
+    partitions: 0,
 };
 
 /// Awkward values: extremes, subnormals, signed zero, many digits.
@@ -246,6 +248,7 @@ fn only_requested_files() {
         bodies: false,
         energy: true,
         constraints: false,
+        ..OutputSpec::default()
     };
     let w = OutputWriter::create(dir.path(), &layout(), &spec, meta()).unwrap();
     w.finish(&Summary::started(&meta())).unwrap();
@@ -538,4 +541,65 @@ fn the_drift_is_the_error_of_the_balance_with_the_work() {
         let col = h.iter().position(|c| c == "work").unwrap();
         assert_eq!(rows[3][col], if work { 3.0 } else { 0.0 });
     }
+}
+
+/// A restarted Exodus run — resumed from the position synced after 8 frames, after the
+/// killed run had written 5 more — leaves the same `results.exo` as a run straight
+/// through. Reference: the straight run's bytes; tolerance: none (byte equality).
+#[test]
+fn exodus_resume_continues_the_file_bitwise() {
+    let spec = OutputSpec {
+        format: crate::contract::scene::OutputFormat::Exodus,
+        partitions: 3,
+        ..ALL
+    };
+    let layout = layout();
+    let mut rng = crate::linalg::testutil::Rng::new(7);
+    let frames: Vec<Frame> = (0..20)
+        .map(|s| {
+            let mut f = Frame::new(&layout);
+            fill(&mut rng, &mut f, s);
+            f
+        })
+        .collect();
+    let submit = |w: &mut OutputWriter, range: std::ops::Range<usize>| {
+        for k in range {
+            let mut f = w.frame();
+            f.clone_from(&frames[k]);
+            w.submit(f).unwrap();
+        }
+    };
+    let straight = tempfile::tempdir().unwrap();
+    let mut w = OutputWriter::create(straight.path(), &layout, &spec, meta()).unwrap();
+    submit(&mut w, 0..20);
+    w.finish(&Summary::started(&meta())).unwrap();
+
+    let restarted = tempfile::tempdir().unwrap();
+    let mut w = OutputWriter::create(restarted.path(), &layout, &spec, meta()).unwrap();
+    submit(&mut w, 0..8);
+    let at = w.sync().unwrap();
+    submit(&mut w, 8..13);
+    drop(w);
+    let cut = exodus::read(&restarted.path().join(exodus::EXODUS_FILE)).unwrap();
+    assert_eq!(cut.frames(), 13);
+    let mut w = OutputWriter::resume(restarted.path(), &layout, &spec, meta(), &at).unwrap();
+    submit(&mut w, 8..20);
+    w.finish(&Summary::started(&meta())).unwrap();
+
+    let a = std::fs::read(straight.path().join(exodus::EXODUS_FILE)).unwrap();
+    let b = std::fs::read(restarted.path().join(exodus::EXODUS_FILE)).unwrap();
+    assert!(a == b, "the resumed file differs from the straight one");
+    let x = exodus::read(&restarted.path().join(exodus::EXODUS_FILE)).unwrap();
+    assert_eq!(x.frames(), 20);
+    assert_eq!(x.manifest().unwrap().frames_complete, 20);
+    assert_eq!(x.manifest().unwrap().partitions, 3);
+    assert!(!restarted.path().join("mesh").exists());
+    // A file of another scene is refused on resume, naming it.
+    let other = Layout {
+        body_names: vec!["x".into()],
+        mass: vec![layout.mass[0]],
+        ..layout.clone()
+    };
+    let e = OutputWriter::resume(restarted.path(), &other, &spec, meta(), &at).unwrap_err();
+    assert!(e.to_string().contains("results.exo"), "{e}");
 }
