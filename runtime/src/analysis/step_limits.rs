@@ -356,8 +356,9 @@ pub fn driven_speed(f: &crate::contract::scene::Fn1, duration: f64) -> Option<(f
 }
 
 /// [`estimate`] with the fastest mode of the constrained system linearized at t = 0
-/// ([`super::constrained_modes::fastest`] on `sys`, the scene's system) added as a source
-/// named by its body and, where one stiffens it, its joint: `constrained mode of body 'link'
+/// ([`super::constrained_modes::fastest`] on `sys`, the scene's system) added as a source,
+/// when it is faster than every source of the scene by more than 10⁻³ (a spring on a free body
+/// is its own mode, and keeps its name), named by its body and, where one stiffens it, its joint: `constrained mode of body 'link'
 /// (93 % of its kinetic energy), stiffened by joint 'pin'`. Also returns the note of a scene
 /// the constrained analysis skipped (too large); scenes with beams or meshes are left to their
 /// element limits without a note.
@@ -367,6 +368,15 @@ pub fn estimate_system<S: System>(scene: &Scene, sys: &S) -> (Estimate, Option<S
     let note = match fastest(sys) {
         Outcome::Skipped(why) => Some(why),
         Outcome::Done(None) | Outcome::Elsewhere => None,
+        // a mode no faster than a scene element's source (to 10⁻³) is that element's: the
+        // element's name says more than the body's
+        Outcome::Done(Some(mode))
+            if est
+                .fastest()
+                .is_some_and(|f| mode.omega <= (1.0 + 1e-3) * f.omega) =>
+        {
+            None
+        }
         Outcome::Done(Some(mode)) => {
             let layout = sys.layout();
             let mut what = format!(
