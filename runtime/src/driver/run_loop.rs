@@ -227,8 +227,10 @@ pub struct RunReport {
     pub retries: u32,
     /// Largest holonomic violation seen after any step, and the joint.
     pub max_violation: (f64, String),
-    /// Largest holonomic violation relative to its joint's own length ([`joint_lengths`]) seen
-    /// after any step: (ratio, joint, the joint's length in m). Above
+    /// Largest holonomic violation relative to its joint's own length ([`joint_lengths`]; a
+    /// `distance` joint's is at least the scene's [`length_scale`], and a row without length
+    /// units, an angle, counts its value as the ratio) seen after any step: (ratio, joint, the
+    /// joint's length in m). Above
     /// [`JOINT_LENGTH_WARNING`] the run says so through [`Observer::notice`].
     pub max_relative_violation: (f64, String, f64),
     /// Largest error of the energy balance `|K + V − W − E₀|` over the energy in play
@@ -1062,21 +1064,22 @@ fn row_scales<S: System>(sys: &S, st: &State, lengths: &[f64]) -> Vec<f64> {
 /// and of the two before. Buffers allocated once per run.
 struct GrowthWatch {
     windows: [Vec<f64>; 3],
-    steps: u64,
+    /// Steps left in the current window.
+    left: u64,
 }
 
 impl GrowthWatch {
     fn new(joints: usize) -> GrowthWatch {
         GrowthWatch {
             windows: [vec![0.0; joints], vec![0.0; joints], vec![0.0; joints]],
-            steps: 0,
+            left: GROWTH_WINDOW,
         }
     }
 
     /// Forget the windows (a new attempt).
     fn reset(&mut self) {
         self.windows.iter_mut().for_each(|w| w.fill(0.0));
-        self.steps = 0;
+        self.left = GROWTH_WINDOW;
     }
 
     /// Take one step's relative violations; at the end of a window, the joint that grew
@@ -1090,10 +1093,11 @@ impl GrowthWatch {
                 self.windows[2][j] = self.windows[2][j].max(*r);
             }
         }
-        self.steps += 1;
-        if self.steps % GROWTH_WINDOW != 0 {
+        self.left -= 1;
+        if self.left > 0 {
             return None;
         }
+        self.left = GROWTH_WINDOW;
         let [w0, w1, w2] = &self.windows;
         let grew = (0..relative.len()).find(|&j| {
             w0[j] > 0.0
