@@ -34,9 +34,21 @@ pub enum Verdict {
     Refuse(String),
 }
 
-/// Judge step `h` with `method` on `scene`.
-pub fn judge(scene: &Scene, method: &MethodSpec, h: f64) -> Verdict {
-    let est = step_limits::estimate(scene);
+/// Judge step `h` with `method` on `scene`, whose system is `sys`: the scene's sources and the
+/// fastest mode of its constrained system at t = 0 ([`step_limits::estimate_system`]). The
+/// second value is the note of a scene too large for the constrained check.
+pub fn judge<S: System>(
+    scene: &Scene,
+    sys: &S,
+    method: &MethodSpec,
+    h: f64,
+) -> (Verdict, Option<String>) {
+    let (est, note) = step_limits::estimate_system(scene, sys);
+    (judge_estimate(&est, method, h), note)
+}
+
+/// [`judge`] on an estimate.
+fn judge_estimate(est: &step_limits::Estimate, method: &MethodSpec, h: f64) -> Verdict {
     let Some(fast) = est.fastest() else {
         return Verdict::Ok;
     };
@@ -107,7 +119,11 @@ pub fn gate<S: System>(
         _ => scene.simulate.method.clone(),
     };
     let h = settings.step.unwrap_or(scene.simulate.step);
-    match judge(scene, &method, h) {
+    let (verdict, note) = judge(scene, sys, &method, h);
+    if let Some(n) = note.filter(|_| !quiet) {
+        eprintln!("note: {n}");
+    }
+    match verdict {
         Verdict::Ok => {}
         Verdict::Warn(m) => {
             if !quiet {

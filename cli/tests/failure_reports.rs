@@ -165,6 +165,47 @@ fn singular_matrix() {
 /// The stability estimate before the run: the stiff spring (ω = 1000 rad/s, h = 10 ms) is
 /// refused for an explicit method with the numbers, and runs with its own
 /// `implicit_trapezoid`.
+/// The constrained step check (issue 21): `light_over_heavy.mbd` has no spring, spin or pivot
+/// the scene-level estimate sees, but its light bob between two loaded rods is a constrained
+/// mode at 1400.77 rad/s (closed form of the double pendulum; `tests/tests/step_check.rs`).
+/// `mbdc run` and `mbdc check` refuse an explicit method at 2 ms (h·ω = 2.8), naming the body,
+/// the joint and the largest stable step 2/ω = 1.428e-3 s, and run it at its own 0.5 ms.
+#[test]
+fn a_constrained_mode_above_the_limit_is_refused_with_its_body_named() {
+    let model = root().join("models/hard/light_over_heavy.mbd");
+    let dir = scratch("light_over_heavy");
+    let out = mbdc(&[
+        "run",
+        "--interp",
+        "-q",
+        "--step",
+        "2e-3",
+        "-o",
+        s(&dir.join("refused")),
+        s(&model),
+    ]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    for part in [
+        "above the stability limit",
+        "constrained mode of body 'light'",
+        "stiffened by joint",
+        // 1400.77 at rest, 10⁻⁴ more with the scene's push (its centripetal load)
+        "1.4009e3 rad/s",
+        "at most 1.428e-3 s",
+    ] {
+        assert!(stderr.contains(part), "no `{part}` in\n{stderr}");
+    }
+    assert!(!dir.join("refused/bodies.csv").exists());
+    let out = mbdc(&["run", "--interp", "-q", "-o", s(&dir.join("ok")), s(&model)]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 #[test]
 fn stiff_spring_is_refused_for_explicit_methods_and_runs_implicitly() {
     let model = root().join("models/hard/stiff_spring.mbd");

@@ -52,7 +52,8 @@
 //! - data in: [`scene`]; the contract: [`system`], [`math`];
 //! - kernels (called by generated code): [`joints`], [`tree_joints`], [`forces`],
 //!   [`contact`], [`fn1`], [`beam_element`];
-//! - before a run: [`topology`], [`coordinates`], [`effects`], [`step_limits`],
+//! - before a run: [`topology`], [`coordinates`], [`effects`], [`step_limits`] (with
+//!   [`constrained_modes`], the constrained system's fastest mode),
 //!   [`input_limits`], [`beam_model`] (beams as bodies), [`mesh_model`] (meshes for the
 //!   explicit method), [`tie_model`] (meshes tied to bodies);
 //! - running: [`linalg`], [`integrators`] (`integrators::make` builds the method a scene
@@ -75,7 +76,8 @@ pub mod linalg;
 pub mod study;
 
 pub use analysis::{
-    beam_model, coordinates, effects, input_limits, mesh_model, step_limits, tie_model, topology,
+    beam_model, constrained_modes, coordinates, effects, input_limits, mesh_model, step_limits,
+    tie_model, topology,
 };
 pub use contract::{math, mesh_layout, mesh_plan, persist, scene, system};
 pub use driver::{assemble, checkpoint, energy, output, run_loop};

@@ -17,12 +17,16 @@
 //!   interpreter and the generated code contain only these.
 //! - [`step_limits`]: the fastest motion of a scene and the step limits it sets (explicit
 //!   stability `h·ω_max ≤ 2`, 20 steps per period for accuracy).
+//! - [`constrained_modes`]: the fastest mode of the constrained system linearized at t = 0
+//!   (mass and stiffness projected onto the constraint null space), which
+//!   [`step_limits::estimate_system`] adds to the scene's sources.
 //! - [`input_limits`]: the sizes and values the runtime accepts, checked before a run.
 //!
 //! Imports the contract, the kernels and linear algebra; knows no integrator and no writer.
 
 pub mod assembly_plan;
 pub mod beam_model;
+pub mod constrained_modes;
 pub mod coordinates;
 pub mod effects;
 pub mod input_limits;

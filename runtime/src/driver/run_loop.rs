@@ -12,6 +12,12 @@
 //!   length scale; it is meant to catch a diverging run, not to judge accuracy) stops the
 //!   run, naming the joint — except for [`ENGAGE_GRACE`] steps after one of the joint's rows
 //!   became active (a lock engaging starts with that step's overshoot);
+//! - a violation above [`Watchdog::max_joint_violation`] of the joint's own length
+//!   ([`joint_lengths`], default [`JOINT_LENGTH_STOP`] = 10 %) stops it too, naming the joint:
+//!   a 7 mm crank whose joints are a millimetre apart is wrong however small that is against
+//!   the scene; and so does a violation that grows exponentially ([`GROWTH_WINDOW`],
+//!   [`GROWTH_FACTOR`], [`GROWTH_FLOOR`]: ten times larger in each of two windows of 32
+//!   steps, and above 10⁻³ of the joint's length), before it gets there;
 //! - the energy balance `K + V − W − E₀`, with `W` the work of applied forces, dampers,
 //!   contact and drivers (`driver/work.rs`) and the impulses of locks engaging and
 //!   drivers' kinks, beyond [`Watchdog::max_energy_growth`] of the energy in play (the largest
@@ -67,6 +73,10 @@ pub struct Watchdog {
     pub max_violation: f64,
     /// Largest angular violation tolerated (rad, for rows without length units).
     pub max_angular_violation: f64,
+    /// Largest violation tolerated relative to each joint's own length ([`joint_lengths`];
+    /// rows without length units count their value, an angle, as the ratio): above it the run
+    /// stops naming the joint. Default [`JOINT_LENGTH_STOP`]; `f64::INFINITY` turns it off.
+    pub max_joint_violation: f64,
     /// Largest error of the energy balance `K + V − W − E₀` tolerated, relative to the
     /// energy in play, in either direction (a loss is checked where every dissipation is
     /// booked: not with locks, damped beams or dynamic relaxation).
@@ -84,6 +94,7 @@ impl Watchdog {
         Watchdog {
             max_violation: 1e-2 * length.max(1e-3),
             max_angular_violation: 1e-2,
+            max_joint_violation: JOINT_LENGTH_STOP,
             max_energy_growth: 0.25,
             energy_sources,
         }
@@ -216,8 +227,10 @@ pub struct RunReport {
     pub retries: u32,
     /// Largest holonomic violation seen after any step, and the joint.
     pub max_violation: (f64, String),
-    /// Largest holonomic violation relative to its joint's own length ([`joint_lengths`]) seen
-    /// after any step: (ratio, joint, the joint's length in m). Above
+    /// Largest holonomic violation relative to its joint's own length ([`joint_lengths`]; a
+    /// `distance` joint's is at least the scene's [`length_scale`], and a row without length
+    /// units, an angle, counts its value as the ratio) seen after any step: (ratio, joint, the
+    /// joint's length in m). Above
     /// [`JOINT_LENGTH_WARNING`] the run says so through [`Observer::notice`].
     pub max_relative_violation: (f64, String, f64),
     /// Largest error of the energy balance `|K + V − W − E₀|` over the energy in play
@@ -238,6 +251,10 @@ struct Probe {
     ce: ConstraintEval,
     resid: Vec<f64>,
     violation: Vec<f64>,
+    /// Per joint, the violation relative to its length ([`row_scales`]).
+    relative: Vec<f64>,
+    /// Per row, what its |Φ| is multiplied by to be relative to its joint's length.
+    row_scale: Vec<f64>,
     velocity_violation: Vec<f64>,
     /// A frame's state with the bodies that carry tied nodes at their own mass centres.
     own: State,
@@ -250,6 +267,8 @@ impl Probe {
             ce: ConstraintEval::new(l.rows),
             resid: vec![0.0; l.rows],
             violation: vec![0.0; l.joints.len()],
+            relative: vec![0.0; l.joints.len()],
+            row_scale: vec![0.0; l.rows],
             velocity_violation: vec![0.0; l.joints.len()],
             own: State::new(l.bodies(), l.rows),
         }
@@ -261,13 +280,15 @@ impl Probe {
         let l = sys.layout();
         sys.constraints(st.t, &st.pose, &st.twist, Need::PHI, &mut self.ce);
         for (j, jl) in l.joints.iter().enumerate() {
-            let mut p: f64 = 0.0;
+            let (mut p, mut rel): (f64, f64) = (0.0, 0.0);
             for r in jl.first_row..jl.first_row + jl.rows {
                 if st.active[r] && l.row_kind[r] == RowKind::Holonomic {
                     p = p.max(self.ce.phi[r].abs());
+                    rel = rel.max(self.ce.phi[r].abs() * self.row_scale[r]);
                 }
             }
             self.violation[j] = p;
+            self.relative[j] = rel;
         }
     }
 
@@ -660,6 +681,10 @@ pub fn run<S: System>(sys: &S, cfg: &RunConfig, obs: &mut dyn Observer) -> RunRe
     let every = cfg.every.max(1) as u64;
     let lengths = joint_lengths(sys, &start);
     let floor = energy_floor(layout, &lengths, length_scale(sys), h);
+    // what violations are measured against (a distance joint's rod stands in for its length)
+    let lengths = relative_lengths(sys, lengths);
+    probe.row_scale = row_scales(sys, &start, &lengths);
+    let mut growth = GrowthWatch::new(layout.joints.len());
     let mut ew = EnergyWatch::new(sys, &start, work, loss_checked, floor);
     // A lock engages when its angle passes the limit, so its row starts with the overshoot of
     // that step (up to ω·h), which the method removes over the next steps: the violation stop
@@ -703,6 +728,7 @@ pub fn run<S: System>(sys: &S, cfg: &RunConfig, obs: &mut dyn Observer) -> RunRe
         off: false,
     });
     'attempt: loop {
+        growth.reset();
         if loader.is_none() {
             prev_active.copy_from_slice(&start.active);
             grace.iter_mut().for_each(|g| *g = 0);
@@ -799,7 +825,19 @@ pub fn run<S: System>(sys: &S, cfg: &RunConfig, obs: &mut dyn Observer) -> RunRe
                 ew.observe(sys, &st, impact_left > 0);
                 impact_left = impact_left.saturating_sub(1);
                 track(layout, &probe, &ew, &lengths, &mut report);
-                check(sys, cfg, &st, &probe, report.steps, h, &ew, &grace)
+                check(sys, cfg, &st, &probe, report.steps, h, &ew, &grace).or_else(|| {
+                    joint_check(
+                        sys,
+                        cfg,
+                        &st,
+                        &probe,
+                        &lengths,
+                        &mut growth,
+                        &grace,
+                        report.steps,
+                        h,
+                    )
+                })
             });
             let failure = match failure {
                 Some(f) => Some(f),
@@ -969,6 +1007,178 @@ fn stats<S: System>(integ: &dyn integrators::Integrator<S>) -> Vec<(String, f64)
 /// reported as a warning at its end.
 pub const JOINT_LENGTH_WARNING: f64 = 1e-2;
 
+/// Above this fraction of a joint's own length the run stops, naming the joint (the default of
+/// [`Watchdog::max_joint_violation`]): joints a tenth of their lever arm apart are no answer.
+pub const JOINT_LENGTH_STOP: f64 = 0.1;
+
+/// The growth check's window, in steps: per joint, the largest relative violation of each
+/// window of this many steps is compared with that of the two windows before.
+pub const GROWTH_WINDOW: u64 = 32;
+
+/// A joint whose window maxima grow by this factor twice in a row (100× over
+/// 2 × [`GROWTH_WINDOW`] steps: a growth rate of at least ln 10 / 32 per step) stops the run
+/// when it is also above [`GROWTH_FLOOR`].
+pub const GROWTH_FACTOR: f64 = 10.0;
+
+/// The growth check's floor: a violation below this fraction of its joint's length is
+/// round-off or the method's tolerance, however fast it grows.
+pub const GROWTH_FLOOR: f64 = 1e-3;
+
+/// The lengths violations are measured against: [`joint_lengths`], except that a `distance`
+/// joint's rows carry no lever arm (attached at the mass centres of point masses, its
+/// Jacobian's angular part is zero) and its rod's length is not in the layout, so the scene's
+/// [`length_scale`] stands for it where it is larger: a 1 m pendulum rod of a 1 cm bob is
+/// measured against 1 m, not the bob's 1 cm.
+fn relative_lengths<S: System>(sys: &S, mut lengths: Vec<f64>) -> Vec<f64> {
+    let scale = length_scale(sys);
+    for (len, jl) in lengths.iter_mut().zip(&sys.layout().joints) {
+        if jl.kind == "distance" {
+            *len = len.max(scale);
+        }
+    }
+    lengths
+}
+
+/// Per row, the factor that makes its |Φ| relative to its joint's length: `1/length` for a row
+/// with a linear part in its Jacobian at the start (a position), 1 for a row without (an
+/// angle: its value is the relative displacement at any lever arm).
+fn row_scales<S: System>(sys: &S, st: &State, lengths: &[f64]) -> Vec<f64> {
+    let l = sys.layout();
+    let mut ce = ConstraintEval::new(l.rows);
+    sys.constraints(st.t, &st.pose, &st.twist, Need::JAC, &mut ce);
+    (0..l.rows)
+        .map(|r| {
+            let (a, b) = l.row_bodies(r);
+            let lin = |blk: &[f64; 6]| blk[..3].iter().any(|x| *x != 0.0);
+            let linear = (a.is_some() && lin(&ce.jac[r].a)) || (b.is_some() && lin(&ce.jac[r].b));
+            if linear {
+                1.0 / lengths[l.row_joint[r]]
+            } else {
+                1.0
+            }
+        })
+        .collect()
+}
+
+/// The growth check's state: per joint, the largest relative violation of the current window
+/// and of the two before. Buffers allocated once per run.
+struct GrowthWatch {
+    windows: [Vec<f64>; 3],
+    /// Steps left in the current window.
+    left: u64,
+}
+
+impl GrowthWatch {
+    fn new(joints: usize) -> GrowthWatch {
+        GrowthWatch {
+            windows: [vec![0.0; joints], vec![0.0; joints], vec![0.0; joints]],
+            left: GROWTH_WINDOW,
+        }
+    }
+
+    /// Forget the windows (a new attempt).
+    fn reset(&mut self) {
+        self.windows.iter_mut().for_each(|w| w.fill(0.0));
+        self.left = GROWTH_WINDOW;
+    }
+
+    /// Take one step's relative violations; at the end of a window, the joint that grew
+    /// ([`GROWTH_FACTOR`] twice, above [`GROWTH_FLOOR`]) with its three window maxima (oldest
+    /// first). A joint in its engagement grace starts over.
+    fn observe(&mut self, relative: &[f64], grace: &[u8]) -> Option<(usize, [f64; 3])> {
+        for (j, r) in relative.iter().enumerate() {
+            if grace[j] > 0 {
+                self.windows.iter_mut().for_each(|w| w[j] = 0.0);
+            } else {
+                self.windows[2][j] = self.windows[2][j].max(*r);
+            }
+        }
+        self.left -= 1;
+        if self.left > 0 {
+            return None;
+        }
+        self.left = GROWTH_WINDOW;
+        let [w0, w1, w2] = &self.windows;
+        let grew = (0..relative.len()).find(|&j| {
+            w0[j] > 0.0
+                && w1[j] >= GROWTH_FACTOR * w0[j]
+                && w2[j] >= GROWTH_FACTOR * w1[j]
+                && w2[j] > GROWTH_FLOOR
+        });
+        let out = grew.map(|j| (j, [w0[j], w1[j], w2[j]]));
+        self.windows.rotate_left(1);
+        self.windows[2].fill(0.0);
+        out
+    }
+}
+
+/// The per-joint stops: a violation above [`Watchdog::max_joint_violation`] of the joint's
+/// length, or one that grows exponentially ([`GrowthWatch`]).
+#[allow(clippy::too_many_arguments)]
+fn joint_check<S: System>(
+    sys: &S,
+    cfg: &RunConfig,
+    st: &State,
+    probe: &Probe,
+    lengths: &[f64],
+    growth: &mut GrowthWatch,
+    grace: &[u8],
+    step: u64,
+    h: f64,
+) -> Option<Failure> {
+    let layout = sys.layout();
+    let method = cfg.method.name();
+    let hint = || {
+        Some(if method == "penalty" {
+            format!("reduce the step (now {h:.3e} s), give penalty a smaller `epsilon`, or use method staggered")
+        } else if method == "staggered" {
+            format!("reduce the step (now {h:.3e} s), or compare with method implicit_trapezoid")
+        } else {
+            format!("reduce the step (now {h:.3e} s), or use method staggered")
+        })
+    };
+    let limit = cfg.watchdog.max_joint_violation;
+    for (j, r) in probe.relative.iter().enumerate() {
+        if *r > limit && grace[j] == 0 {
+            return Some(Failure {
+                time: st.t,
+                step,
+                location: format!("joint '{}'", layout.joints[j].name),
+                quantity: "constraint violation |Φ| against the joint's length".into(),
+                value: *r,
+                cause: format!(
+                    "the joint's violation {:.3e} reached {:.1} % of its own length ({:.3e} m, its largest lever arm or body size; limit {:.0} %): the bodies it joins are no longer where the joint holds them, so the answer is wrong at the scene's scale",
+                    probe.violation[j],
+                    100.0 * r,
+                    lengths[j],
+                    100.0 * limit
+                ),
+                hint: hint(),
+            });
+        }
+    }
+    if let Some((j, w)) = growth.observe(&probe.relative, grace) {
+        return Some(Failure {
+            time: st.t,
+            step,
+            location: format!("joint '{}'", layout.joints[j].name),
+            quantity: "constraint violation |Φ| growing".into(),
+            value: w[2],
+            cause: format!(
+                "the joint's violation grows exponentially: its largest share of the joint's length ({:.3e} m) in three windows of {GROWTH_WINDOW} steps was {:.2e}, {:.2e}, {:.2e} (×{:.0} and ×{:.0}): the method is unstable here (a step above its limit, or a singular configuration)",
+                lengths[j],
+                w[0],
+                w[1],
+                w[2],
+                w[1] / w[0],
+                w[2] / w[1]
+            ),
+            hint: hint(),
+        });
+    }
+    None
+}
+
 /// Per joint, the length its violation is measured against: the largest lever arm of its
 /// position rows on either body (|r × e| from the Jacobian at the start) or radius of
 /// gyration (√(tr J / m)) of its bodies. A chain of 7 mm links gets 3.5 mm, where the scene's
@@ -1066,7 +1276,7 @@ fn track(
         if *v > report.max_violation.0 {
             report.max_violation = (*v, layout.joints[j].name.clone());
         }
-        let ratio = v / lengths[j];
+        let ratio = probe.relative[j];
         if ratio > report.max_relative_violation.0 {
             report.max_relative_violation = (ratio, layout.joints[j].name.clone(), lengths[j]);
         }
@@ -1901,5 +2111,87 @@ mod tests {
         assert!(r.finished, "{:?}", r.failure);
         assert!(r.retries > 0 && !obs.1.is_empty());
         assert!(obs.1[0].contains("halved"));
+    }
+
+    /// A violation above [`JOINT_LENGTH_STOP`] of its joint's length stops the run (issue 21:
+    /// it used to warn only): the 2 cm rod of `a_violation_large_for_the_joint_is_reported`
+    /// under `penalty` with ε = 10⁻⁴ m/N sags by more than 1 mm at its 1 cm lever arm (its
+    /// weight and swing over the penalty stiffness, about 10⁻³ m) and stops, naming the pivot,
+    /// the time and the step; with the stop off it finishes (reference: the finished run's own
+    /// maximum, above 10 % of the length). The energy check is off in both runs (the soft
+    /// joint's losses would stop them first).
+    #[test]
+    fn a_violation_above_a_tenth_of_the_joint_stops_the_run() {
+        let sys = RodPendulum::new(1.0, 0.02, 0.001, 1.0);
+        let run_with = |stop: f64| {
+            let cfg = RunConfig {
+                duration: 0.2,
+                step: 1e-4,
+                method: MethodSpec::Penalty {
+                    epsilon: Some(1e-4),
+                },
+                every: 100,
+                on_failure: OnFailure::Stop,
+                watchdog: Watchdog {
+                    max_joint_violation: stop,
+                    max_energy_growth: f64::INFINITY,
+                    ..Watchdog::for_scale(1.0, false)
+                },
+                checkpoint: None,
+                resume: None,
+            };
+            run(&sys, &cfg, &mut Count(0, vec![]))
+        };
+        let free = run_with(f64::INFINITY);
+        assert!(free.finished, "{:?}", free.failure);
+        assert!(
+            free.max_relative_violation.0 > JOINT_LENGTH_STOP,
+            "{:?}",
+            free.max_relative_violation
+        );
+        let r = run_with(JOINT_LENGTH_STOP);
+        let f = r.failure.expect("stops");
+        eprintln!("{f}");
+        assert_eq!(f.location, "joint 'pivot'");
+        assert!(f.quantity.contains("joint's length"), "{f}");
+        assert!(
+            f.value > JOINT_LENGTH_STOP && f.step > 0 && f.time > 0.0,
+            "{f}"
+        );
+        assert!(f.hint.as_deref().unwrap_or("").contains("epsilon"), "{f}");
+    }
+
+    /// The growth check: per joint, window maxima that grow by [`GROWTH_FACTOR`] twice in a
+    /// row above [`GROWTH_FLOOR`] stop; a violation that grows as e^{0.1 k} (×24.5 per window)
+    /// from 10⁻⁸ is caught in the window where it passes the floor (reference: the window
+    /// arithmetic, exact), while one that rises 100× and stays (a flat passage), grows 9×
+    /// per window, or grows from round-off to below the floor, is not; a lock's engagement
+    /// (grace) starts the joint over.
+    #[test]
+    fn exponential_growth_of_a_violation_stops_the_run() {
+        let run = |f: &dyn Fn(u64) -> f64, steps: u64, grace: &dyn Fn(u64) -> u8| {
+            let mut g = GrowthWatch::new(1);
+            (1..=steps).find_map(|k| g.observe(&[f(k)], &[grace(k)]).map(|(j, w)| (k, j, w)))
+        };
+        let none = |_| 0u8;
+        let (k, j, w) = run(&|k| 1e-8 * (0.1 * k as f64).exp(), 1000, &none).expect("caught");
+        assert_eq!(j, 0);
+        // e^{0.1 k} from 1e-8 passes 1e-3 at k = 116: the window ending at step 128
+        assert_eq!(k, 128, "{w:?}");
+        assert!(w[2] > GROWTH_FLOOR && w[2] < JOINT_LENGTH_STOP, "{w:?}");
+        assert!(run(&|k| if k < 40 { 1e-4 } else { 1e-2 }, 1000, &none).is_none());
+        assert!(run(&|k| 1e-6 * 9f64.powf(k as f64 / 32.0), 200, &none).is_none());
+        assert!(run(&|k| 1e-15 * (0.2 * k as f64).exp(), 120, &none).is_none());
+        // a lock engaging at step 100 (3 steps of grace) jumps its violation: without the
+        // grace that is growth (1e-9, 1e-7, 1e-2 in three windows), with it the joint's
+        // windows start over
+        let jump = |k: u64| match k {
+            0..70 => 1e-9,
+            70..100 => 1e-7,
+            _ => 1e-2,
+        };
+        assert_eq!(run(&jump, 400, &none).map(|r| r.0), Some(128));
+        let engaged = |k| if (100..103).contains(&k) { 3u8 } else { 0 };
+        assert!(run(&jump, 400, &engaged).is_none());
     }
 }
