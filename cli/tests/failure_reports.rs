@@ -162,9 +162,6 @@ fn singular_matrix() {
     assert!(f["hint"].as_str().unwrap().contains("staggered"), "{f}");
 }
 
-/// The stability estimate before the run: the stiff spring (ω = 1000 rad/s, h = 10 ms) is
-/// refused for an explicit method with the numbers, and runs with its own
-/// `implicit_trapezoid`.
 /// The constrained step check (issue 21): `light_over_heavy.mbd` has no spring, spin or pivot
 /// the scene-level estimate sees, but its light bob between two loaded rods is a constrained
 /// mode at 1400.77 rad/s (closed form of the double pendulum; `tests/tests/step_check.rs`).
@@ -206,6 +203,9 @@ fn a_constrained_mode_above_the_limit_is_refused_with_its_body_named() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// The stability estimate before the run: the stiff spring (ω = 1000 rad/s, h = 10 ms) is
+/// refused for an explicit method with the numbers, and runs with its own
+/// `implicit_trapezoid`.
 #[test]
 fn stiff_spring_is_refused_for_explicit_methods_and_runs_implicitly() {
     let model = root().join("models/hard/stiff_spring.mbd");
