@@ -762,9 +762,6 @@ impl ExodusSeries {
                 path: self.manifest_path.clone(),
                 message: e.to_string(),
             })?;
-        let tmp = self.manifest_path.with_extension("json.tmp");
-        std::fs::write(&tmp, text + "\n").map_err(|e| io_err(OutputErrorKind::Write, &tmp, e))?;
-        std::fs::rename(&tmp, &self.manifest_path)
-            .map_err(|e| io_err(OutputErrorKind::Write, &self.manifest_path, e))
+        super::replace_file::replace_file(&self.manifest_path, (text + "\n").as_bytes())
     }
 }

@@ -73,6 +73,7 @@ mod exodus_read;
 mod frame_pool;
 mod json;
 mod netcdf3;
+mod replace_file;
 mod scene_file;
 pub mod size_estimate;
 mod vtk;
@@ -1303,7 +1304,6 @@ struct Written<'a> {
 /// Write `summary.json` atomically (temporary file, then rename).
 fn write_summary(dir: &Path, s: &Summary) -> Result<(), OutputError> {
     let path = dir.join("summary.json");
-    let tmp = dir.join(".summary.json.tmp");
     let written = Written {
         status: s.status(),
         summary: s,
@@ -1312,21 +1312,7 @@ fn write_summary(dir: &Path, s: &Summary) -> Result<(), OutputError> {
         path: path.clone(),
         message: e.to_string(),
     })?;
-    let mut f =
-        File::create(&tmp).map_err(|e| OutputError::io(OutputErrorKind::Create, &tmp, e))?;
-    let written = f
-        .write_all(text.as_bytes())
-        .and_then(|()| f.write_all(b"\n"))
-        .map_err(|e| OutputError::io(OutputErrorKind::Write, &tmp, e));
-    drop(f);
-    let renamed = written.and_then(|()| {
-        std::fs::rename(&tmp, &path).map_err(|e| OutputError::io(OutputErrorKind::Write, &path, e))
-    });
-    if renamed.is_err() {
-        // a full disk leaves the summary of the start, not an empty temporary beside it
-        let _ = std::fs::remove_file(&tmp);
-    }
-    renamed
+    replace_file::replace_file(&path, format!("{text}\n").as_bytes())
 }
 
 #[cfg(test)]

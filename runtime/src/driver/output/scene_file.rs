@@ -7,7 +7,6 @@
 //! geometry, and a mesh of 10⁶ elements would make the file hundreds of megabytes.
 //! Written atomically (temporary file, rename), like `summary.json`.
 
-use std::io::Write as _;
 use std::path::Path;
 
 use super::{OutputError, OutputErrorKind};
@@ -29,18 +28,11 @@ pub fn write_scene(dir: &Path, scene: &Scene) -> Result<(), OutputError> {
         m.conditions = Vec::new();
     }
     let path = dir.join(SCENE_FILE);
-    let tmp = dir.join(".scene.json.tmp");
     let text = serde_json::to_string(&light).map_err(|e| OutputError::Json {
         path: path.clone(),
         message: e.to_string(),
     })?;
-    let mut f = std::fs::File::create(&tmp)
-        .map_err(|e| OutputError::io(OutputErrorKind::Create, &tmp, e))?;
-    f.write_all(text.as_bytes())
-        .and_then(|()| f.write_all(b"\n"))
-        .map_err(|e| OutputError::io(OutputErrorKind::Write, &tmp, e))?;
-    drop(f);
-    std::fs::rename(&tmp, &path).map_err(|e| OutputError::io(OutputErrorKind::Write, &path, e))
+    super::replace_file::replace_file(&path, format!("{text}\n").as_bytes())
 }
 
 /// Read a `scene.json` written by [`write_scene`].

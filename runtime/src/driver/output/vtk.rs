@@ -121,11 +121,7 @@ impl PvdSeries {
             "<?xml version=\"1.0\"?>\n<VTKFile type=\"Collection\" version=\"0.1\">\n  <Collection>\n{}  </Collection>\n</VTKFile>\n",
             self.entries
         );
-        let tmp = self.pvd.with_extension("pvd.tmp");
-        std::fs::write(&tmp, text.as_bytes())
-            .map_err(|e| OutputError::io(OutputErrorKind::Write, &tmp, e))?;
-        std::fs::rename(&tmp, &self.pvd)
-            .map_err(|e| OutputError::io(OutputErrorKind::Write, &self.pvd, e))
+        super::replace_file::replace_file(&self.pvd, text.as_bytes())
     }
 }
 
