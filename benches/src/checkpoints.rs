@@ -68,7 +68,14 @@ fn measure(name: &str, scene: &Scene, method: MethodSpec, dir: &Path, rounds: us
     for _ in 0..5 {
         integ.step(&sys).expect("steps");
     }
-    let identity = Identity::of(scene, sys.layout(), method.name(), h, 1);
+    let identity = Identity::of(
+        scene,
+        sys.layout(),
+        method.name(),
+        h,
+        1,
+        scene.simulate.output.format,
+    );
     let (mut step, mut save, mut write, mut read) = (f64::MAX, f64::MAX, f64::MAX, f64::MAX);
     let mut bytes = Vec::new();
     let mut at = State::initial(&sys);

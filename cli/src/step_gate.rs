@@ -157,5 +157,6 @@ pub fn output_warning<S: System>(sys: &S, scene: &Scene, settings: &Settings) ->
     let duration = settings.duration.unwrap_or(scene.simulate.duration);
     let every = settings.every.unwrap_or(scene.simulate.output.every);
     let steps = run_loop::step_count(duration, h);
-    size_estimate::warning(sys.layout(), &scene.simulate.output, steps, every)
+    let spec = mbdc_runtime::app::output_spec(scene, settings);
+    size_estimate::warning(sys.layout(), &spec, steps, every)
 }

@@ -187,3 +187,42 @@ fn plot_redraws_and_draws_quantities_by_name() {
     assert!(String::from_utf8_lossy(&o.stderr).contains("not an output folder"));
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// A run that keeps its beams in `results.exo` (`--format exodus`, no `beams.csv`) gets the
+/// same beam plot as the run that writes `beams.csv`: `mbdc plot` reads the beam blocks'
+/// section quantities from the Exodus file. Reference: the CSV run's `beam_blade.svg`; the
+/// two files must be equal byte for byte (the same frames, the same `f64`s).
+#[test]
+fn beam_plots_are_drawn_from_the_exodus_file() {
+    let dir = scratch("beam-exodus");
+    let model = root().join("models/cantilever.mbd");
+    let mut svgs = Vec::new();
+    for format in ["csv", "exodus"] {
+        let out = dir.join(format);
+        let o = mbdc(&[
+            "run",
+            s(&model),
+            "--interp",
+            "--duration",
+            "0.05",
+            "--format",
+            format,
+            "-q",
+            "-o",
+            s(&out),
+        ]);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        assert_eq!(out.join("beams.csv").exists(), format == "csv");
+        // redrawn by `mbdc plot` from what the run left
+        std::fs::remove_file(out.join("beam_blade.svg")).expect("written by the run");
+        let o = mbdc(&["plot", s(&out)]);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let (_, series) = svg(&out.join("beam_blade.svg"));
+        for want in ["uz", "N2 shear", "M3 bending"] {
+            assert!(series.iter().any(|x| x == want), "{want} in {series:?}");
+        }
+        svgs.push(std::fs::read(out.join("beam_blade.svg")).expect("beam_blade.svg"));
+    }
+    assert!(svgs[0] == svgs[1], "the Exodus run's beam plot differs from the CSV run's");
+    let _ = std::fs::remove_dir_all(&dir);
+}

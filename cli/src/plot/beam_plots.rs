@@ -7,8 +7,9 @@
 //! | section forces | `N1` (axial), `N2`, `N3` (shear) (N) at the elements' midpoints |
 //! | section moments | `M1` (torsion), `M2`, `M3` (bending) (N·m) |
 //!
-//! Read from `beams.csv` (the section quantities) and `bodies.csv` (the nodes, bodies named
-//! `BEAM.node[k]`).
+//! Read from `beams.csv` (the section quantities) or, when the run wrote its beams in
+//! `results.exo` (`format exodus`, no `beams.csv`), from that file's beam blocks; and from
+//! `bodies.csv` (the nodes, bodies named `BEAM.node[k]`).
 
 use std::path::{Path, PathBuf};
 
@@ -90,6 +91,34 @@ fn last_frames(path: &Path) -> Result<Vec<(String, LastFrame)>, PlotError> {
     Ok(out)
 }
 
+/// Per beam block of an Exodus file (the blocks with the beams' element variable `s`), its
+/// rows of the last complete frame.
+fn last_frames_exodus(path: &Path) -> Result<Vec<(String, LastFrame)>, PlotError> {
+    use mbdc_runtime::output::{exodus, BEAM_COLUMNS};
+    let err = |e: mbdc_runtime::output::OutputError| PlotError::Exodus(e.to_string());
+    let file = exodus::read(path).map_err(err)?;
+    let Some(last) = file.frames().checked_sub(1) else {
+        return Ok(Vec::new());
+    };
+    let t = file.times().map_err(err)?.last().copied().unwrap_or(0.0);
+    let mut out = Vec::new();
+    for (k, block) in file.blocks().map_err(err)?.into_iter().enumerate() {
+        if !file.has_element_variable("s", k) {
+            continue;
+        }
+        let s = file.element("s", k, last, 1).map_err(err)?;
+        let mut rows: Vec<(f64, [f64; 6])> = s.iter().map(|&s| (s, [0.0; 6])).collect();
+        for (c, name) in BEAM_COLUMNS[..6].iter().enumerate() {
+            let v = file.element(name, k, last, 1).map_err(err)?;
+            for (row, x) in rows.iter_mut().zip(v) {
+                row.1[c] = x;
+            }
+        }
+        out.push((block.name, LastFrame { t, rows }));
+    }
+    Ok(out)
+}
+
 /// The node displacements of `beam` at the last frame of `bodies.csv`: (k, ux, uy, uz).
 fn deflection(bodies: &Path, beam: &str) -> Result<Vec<[f64; 4]>, PlotError> {
     let head = data::header(bodies)?;
@@ -129,21 +158,26 @@ fn deflection(bodies: &Path, beam: &str) -> Result<Vec<[f64; 4]>, PlotError> {
 }
 
 /// Draw `beam_<name>.svg` for every beam of the run in `dir`. Returns the files written
-/// and notes on what was skipped; nothing when the run has no `beams.csv`.
+/// and notes on what was skipped; nothing when the run has neither `beams.csv` nor beams in
+/// `results.exo`.
 pub fn draw_beam_plots(
     dir: &Path,
     model: &str,
     sub: &Option<String>,
 ) -> Result<(Vec<PathBuf>, Vec<String>), PlotError> {
-    let path = dir.join("beams.csv");
-    if !path.exists() {
-        return Ok((Vec::new(), Vec::new()));
-    }
+    let (csv, exo) = (dir.join("beams.csv"), dir.join("results.exo"));
     let (mut files, mut notes) = (Vec::new(), Vec::new());
-    let beams = last_frames(&path)?;
-    if beams.is_empty() {
-        notes.push("beam plots: beams.csv has no frames".into());
-    }
+    let beams = if csv.exists() {
+        let beams = last_frames(&csv)?;
+        if beams.is_empty() {
+            notes.push("beam plots: beams.csv has no frames".into());
+        }
+        beams
+    } else if exo.exists() {
+        last_frames_exodus(&exo)?
+    } else {
+        return Ok((files, notes));
+    };
     for (name, lf) in beams {
         // a colour per series across the panels, so each polyline is tagged with its own
         let line = |label: &str, c: usize, pts: Vec<(f64, f64)>| Series {

@@ -37,6 +37,8 @@ pub enum PlotError {
         /// What went wrong.
         message: String,
     },
+    /// The Exodus II file (`results.exo`) could not be read.
+    Exodus(String),
     /// The request cannot be drawn (unknown quantity, nothing to plot, ...).
     Request(String),
     /// The drawing backend failed.
@@ -48,7 +50,7 @@ impl std::fmt::Display for PlotError {
         match self {
             PlotError::Io { path, source } => write!(f, "{}: {source}", path.display()),
             PlotError::Csv { path, message } => write!(f, "{}: {message}", path.display()),
-            PlotError::Request(m) => f.write_str(m),
+            PlotError::Exodus(m) | PlotError::Request(m) => f.write_str(m),
             PlotError::Draw(m) => write!(f, "drawing the plot: {m}"),
         }
     }

@@ -10,17 +10,18 @@ use std::path::{Path, PathBuf};
 
 use serde::Serialize;
 
+use mbdc_runtime::output::vtk_cell_type;
 use mbdc_runtime::scene::{ElementKind, Scene};
 
 use super::frames::{FrameBlock, FrameLayout};
 use super::ViewError;
 
-/// VTK cell types.
-const VTK_LINE: u8 = 3;
-const VTK_TRIANGLE: u8 = 5;
-const VTK_QUAD: u8 = 9;
-const VTK_TETRA: u8 = 10;
-const VTK_HEXAHEDRON: u8 = 12;
+/// The VTK cell types the `.vtu` writer gives each element kind.
+const VTK_LINE: u8 = vtk_cell_type(ElementKind::Bar2);
+const VTK_TRIANGLE: u8 = vtk_cell_type(ElementKind::Tri3PlaneStress);
+const VTK_QUAD: u8 = vtk_cell_type(ElementKind::Quad4PlaneStress);
+const VTK_TETRA: u8 = vtk_cell_type(ElementKind::Tet4);
+const VTK_HEXAHEDRON: u8 = vtk_cell_type(ElementKind::Hex8);
 
 /// One mesh of the page (the JSON `meshes` entry).
 #[derive(Clone, Debug, PartialEq, Serialize)]

@@ -103,7 +103,14 @@ pub fn checkpoints<S: System>(
     if keep == 0 {
         return Err("`--keep-checkpoints` must be at least 1".into());
     }
-    let identity = Identity::of(scene, sys.layout(), cfg.method.name(), cfg.step, cfg.every);
+    let identity = Identity::of(
+        scene,
+        sys.layout(),
+        cfg.method.name(),
+        cfg.step,
+        cfg.every,
+        output_spec(scene, s).format,
+    );
     let folder = dir.join(checkpoint::FOLDER);
     let mut notes = Vec::new();
     if s.restart {
@@ -114,7 +121,7 @@ pub fn checkpoints<S: System>(
         if let Some(d) = c.identity.difference(&identity) {
             return Err(format!(
                 "{} is a checkpoint of another run: {d}
-  help: restart with the model, method, step and --every it was written with",
+  help: restart with the model, method, step, --every and --format it was written with",
                 c.path.display()
             ));
         }

@@ -55,16 +55,22 @@ pub struct Identity {
     pub rows: usize,
     /// FNV-1a hash of the scene (its JSON, duration left out), hex.
     pub scene: String,
+    /// The output format the run writes (`csv`, `vtk`, `exodus`): a run continues the
+    /// files of its format, so a restart in another format is refused. Empty in
+    /// checkpoints written before the field existed (then not compared).
+    #[serde(default)]
+    pub format: String,
 }
 
 impl Identity {
-    /// The identity of a run of `scene` with `method`, `step` and `every`.
+    /// The identity of a run of `scene` with `method`, `step` and `every`, writing `format`.
     pub fn of(
         scene: &crate::contract::scene::Scene,
         layout: &crate::contract::system::Layout,
         method: &str,
         step: f64,
         every: u32,
+        format: crate::contract::scene::OutputFormat,
     ) -> Identity {
         let mut s = scene.clone();
         s.simulate.duration = 0.0;
@@ -81,6 +87,7 @@ impl Identity {
             bodies: layout.bodies(),
             rows: layout.rows,
             scene: format!("{h:016x}"),
+            format: format.name().into(),
         }
     }
 
@@ -122,6 +129,12 @@ impl Identity {
             d.push(format!(
                 "{} bodies and {} constraint rows, not {} and {}",
                 self.bodies, self.rows, now.bodies, now.rows
+            ));
+        }
+        if !self.format.is_empty() && self.format != now.format {
+            d.push(format!(
+                "output format {}, not {} (a run continues the files it wrote)",
+                self.format, now.format
             ));
         }
         if d.is_empty() && self.scene != now.scene {
@@ -363,6 +376,7 @@ mod tests {
             bodies: 2,
             rows: 6,
             scene: "00ff".into(),
+            format: "vtk".into(),
         }
     }
 
@@ -398,6 +412,14 @@ mod tests {
         let mut now = id();
         now.scene = "0100".into();
         assert!(id().difference(&now).unwrap().contains("numbers differ"));
+        let mut now = id();
+        now.format = "exodus".into();
+        let d = id().difference(&now).unwrap();
+        assert!(d.contains("output format vtk, not exodus"), "{d}");
+        // a checkpoint from before the field existed does not compare it
+        let mut old = id();
+        old.format.clear();
+        assert_eq!(old.difference(&now), None);
     }
 
     #[test]

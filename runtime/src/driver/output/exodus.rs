@@ -132,6 +132,14 @@ pub fn read(path: &Path) -> Result<ExodusFile, OutputError> {
     ExodusFile::open(path)
 }
 
+/// The size of the file a run of `layout` writes, as (bytes before the first frame, bytes
+/// per frame); `None` when it writes none (no node). The model's name in the header is left
+/// out (a few bytes).
+pub(crate) fn file_layout(layout: &Layout) -> Option<(u64, u64)> {
+    let plan = Plan::new(layout, "")?;
+    Some((plan.schema.records_begin, plan.schema.record_size))
+}
+
 /// An element block being planned: name, Exodus type, nodes per element, 1-based
 /// connectivity, where its element variables come from (`None`: it has none).
 type BlockDef = (String, &'static str, usize, Vec<i64>, Option<Source>);

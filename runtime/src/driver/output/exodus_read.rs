@@ -335,6 +335,19 @@ impl ExodusFile {
         self.doubles(v, frame, parts)
     }
 
+    /// Whether block `block` (0-based) has the element variable `name` (the truth table:
+    /// a mesh block has the meshes' variables, a beam block the beams', the bodies' none).
+    pub fn has_element_variable(&self, name: &str, block: usize) -> bool {
+        self.element_names()
+            .ok()
+            .and_then(|names| names.iter().position(|n| n == name))
+            .is_some_and(|i| {
+                self.schema
+                    .var_id(&format!("vals_elem_var{}eb{}", i + 1, block + 1))
+                    .is_some()
+            })
+    }
+
     /// An element variable's values in block `block` (0-based) at a frame, read in `parts`
     /// slices on as many threads.
     pub fn element(

@@ -82,7 +82,7 @@ mod vtu;
 pub use scene_file::{read_scene, write_scene, SCENE_FILE};
 pub use size_estimate::{estimate, OutputEstimate};
 
-pub use vtu::{von_mises, MESH_ENERGY_COLUMNS};
+pub use vtu::{cell_type as vtk_cell_type, von_mises, MESH_ENERGY_COLUMNS};
 
 use std::collections::BTreeMap;
 use std::fs::File;

@@ -14,7 +14,7 @@
 
 use super::csv::{BEAM_COLUMNS, BODY_COLUMNS, ENERGY_COLUMNS};
 use super::vtu::MESH_ENERGY_COLUMNS;
-use crate::contract::scene::OutputSpec;
+use crate::contract::scene::{OutputFormat, OutputSpec};
 use crate::contract::system::Layout;
 
 /// Characters of one written `f64` with its separator (see the module doc).
@@ -52,8 +52,11 @@ pub fn frames(steps: u64, every: u32) -> u64 {
 }
 
 /// The output of a run of `steps` steps on a system of `layout`, writing the files `spec`
-/// asks for (and those of beams and meshes, which every run with them writes) every
-/// `every` steps.
+/// asks for (and those of beams and meshes, which every run with them writes, in the
+/// spec's format) every `every` steps.
+///
+/// `results.exo` (format `exodus`) is binary: its size is exact, the header (the mesh, the
+/// names) plus one record of 8-byte values per frame, taken from the file's own layout.
 pub fn estimate(layout: &Layout, spec: &OutputSpec, steps: u64, every: u32) -> OutputEstimate {
     let n = BYTES_PER_NUMBER;
     let i = BYTES_PER_INDEX;
@@ -74,16 +77,24 @@ pub fn estimate(layout: &Layout, spec: &OutputSpec, steps: u64, every: u32) -> O
             .sum::<u64>();
         files.push(("constraints.csv", numbers * n));
     }
+    let (series, exodus) = (
+        spec.format == OutputFormat::Vtk,
+        spec.format == OutputFormat::Exodus,
+    );
     let bl = &layout.beams;
     if !bl.is_empty() {
         let elements = bl.elements.len() as u64;
         let points: u64 = bl.beams.iter().map(|b| b.elements as u64 + 1).sum();
-        files.push(("beams.csv", elements * (4 + BEAM_COLUMNS.len() as u64) * n));
-        // points, lines (two nodes, an offset, the beam), N M gamma kappa per element
-        files.push((
-            "beams/*.vtp",
-            XML_TAGS + points * 3 * n + elements * (4 * i + 12 * n),
-        ));
+        if !exodus {
+            files.push(("beams.csv", elements * (4 + BEAM_COLUMNS.len() as u64) * n));
+        }
+        if series {
+            // points, lines (two nodes, an offset, the beam), N M gamma kappa per element
+            files.push((
+                "beams/*.vtp",
+                XML_TAGS + points * 3 * n + elements * (4 * i + 12 * n),
+            ));
+        }
     }
     let ml = &layout.meshes;
     if !ml.blocks.is_empty() {
@@ -100,11 +111,21 @@ pub fn estimate(layout: &Layout, spec: &OutputSpec, steps: u64, every: u32) -> O
             let plastic = if b.material.plastic.is_some() { 7 } else { 0 };
             cells += e * ((b.kind.nodes() as u64 + 3) * i + (13 + plastic) * n);
         }
-        // reference points, displacement and velocity per node
-        files.push(("mesh/*.vtu", XML_TAGS + nodes * 9 * n + cells));
+        if series {
+            // reference points, displacement and velocity per node
+            files.push(("mesh/*.vtu", XML_TAGS + nodes * 9 * n + cells));
+        }
     }
     for f in &mut files {
         f.1 = f.1.saturating_mul(frames);
+    }
+    if exodus {
+        if let Some((header, record)) = super::exodus::file_layout(layout) {
+            files.push((
+                super::exodus::EXODUS_FILE,
+                header.saturating_add(record.saturating_mul(frames)),
+            ));
+        }
     }
     OutputEstimate { frames, files }
 }

@@ -33,8 +33,8 @@ pub const MESH_ENERGY_COLUMNS: [&str; 10] = [
     "balance",
 ];
 
-/// The VTK cell type of an element kind.
-fn cell_type(kind: ElementKind) -> u8 {
+/// The VTK cell type of an element kind (the `types` array of a `.vtu` file).
+pub const fn cell_type(kind: ElementKind) -> u8 {
     match kind {
         ElementKind::Bar2 => 3,
         ElementKind::Tri3PlaneStress | ElementKind::Tri3PlaneStrain => 5,
