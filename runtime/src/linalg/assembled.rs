@@ -144,8 +144,10 @@ impl SymmetricAssembly {
                 ptr[(k >> 32) as usize + 1] += 1;
                 idx.push((k & 0xffff_ffff) as usize);
             }
-            for i in 0..n {
-                ptr[i + 1] += ptr[i];
+            let mut total = 0;
+            for p in ptr.iter_mut() {
+                total += *p;
+                *p = total;
             }
             (ptr, idx)
         };
@@ -285,6 +287,7 @@ impl SymmetricAssembly {
     }
 
     /// `y = K_ff x` (free vectors) from the upper-triangle values `k_ff`.
+    #[allow(clippy::needless_range_loop)] // j is the column of x, y and the pointers
     pub fn mul_free(&self, k_ff: &[f64], x: &[f64], y: &mut [f64]) {
         y.iter_mut().for_each(|v| *v = 0.0);
         for j in 0..self.free.len() {

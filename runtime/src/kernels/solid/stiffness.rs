@@ -22,6 +22,7 @@ pub type ElementMatrix = [[f64; MAX_DOFS]; MAX_DOFS];
 /// `kind.nodes()` rows), whatever the kinematics in `opts` (the tangent at the reference
 /// configuration is the small-strain one for both measures). Symmetrized against
 /// round-off. No heap allocation.
+#[allow(clippy::needless_range_loop)] // index loops mirror the index notation
 pub fn element_stiffness(
     kind: ElementKind,
     opts: &ElementOptions,
