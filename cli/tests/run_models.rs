@@ -249,6 +249,7 @@ fn every_mesh_model_runs_and_writes_its_series() {
         "plastic_bar",
         "plastic_dent",
         "mesh_on_pendulum",
+        "cantilever_newmark",
     ] {
         let dir = out_dir(model);
         let out = command()

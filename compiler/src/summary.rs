@@ -370,7 +370,8 @@ pub fn summary(scene: &Scene) -> CheckSummary {
                     .collect(),
             })
             .collect(),
-        mesh_critical_step: if scene.meshes.is_empty() {
+        // (the implicit analyses have no step limit)
+        mesh_critical_step: if scene.meshes.is_empty() || scene.simulate.mesh_method.is_implicit() {
             None
         } else {
             mbdc_runtime::mesh_model::build(&scene.meshes)
@@ -379,7 +380,10 @@ pub fn summary(scene: &Scene) -> CheckSummary {
                 .map(|c| (c.step, format!("mesh '{}', {}", c.mesh, c.place)))
         },
         gravity: scene.gravity,
-        method: method_text(&scene.simulate.method),
+        method: match scene.simulate.mesh_method {
+            m if m.is_implicit() => format!("mesh_method {}", m.name()),
+            _ => method_text(&scene.simulate.method),
+        },
         step: scene.simulate.step,
         duration: scene.simulate.duration,
         steps,

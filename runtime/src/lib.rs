@@ -55,7 +55,8 @@
 //! - before a run: [`topology`], [`coordinates`], [`effects`], [`step_limits`] (with
 //!   [`constrained_modes`], the constrained system's fastest mode),
 //!   [`input_limits`], [`beam_model`] (beams as bodies), [`mesh_model`] (meshes for the
-//!   explicit method), [`tie_model`] (meshes tied to bodies);
+//!   explicit method), [`mesh_stiffness`] (their assembled stiffness for the implicit
+//!   analyses), [`tie_model`] (meshes tied to bodies);
 //! - running: [`linalg`], [`integrators`] (`integrators::make` builds the method a scene
 //!   asks for), [`run_loop`] (advance a `System` and stream frames to writers), [`output`],
 //!   [`assemble`], [`energy`];
@@ -76,8 +77,8 @@ pub mod linalg;
 pub mod study;
 
 pub use analysis::{
-    beam_model, constrained_modes, coordinates, effects, input_limits, mesh_model, step_limits,
-    tie_model, topology,
+    beam_model, constrained_modes, coordinates, effects, input_limits, mesh_model, mesh_stiffness,
+    step_limits, tie_model, topology,
 };
 pub use contract::{math, mesh_layout, mesh_plan, persist, scene, system};
 pub use driver::{assemble, checkpoint, energy, output, run_loop};

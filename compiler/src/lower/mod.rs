@@ -520,7 +520,7 @@ impl<'a> Lowerer<'a> {
             return None;
         }
         let name = self.model.as_ref().map(|m| m.1.clone()).unwrap_or_default();
-        Some(Scene {
+        let scene = Scene {
             name,
             gravity,
             bodies: self.scene_bodies.iter().flatten().cloned().collect(),
@@ -532,7 +532,14 @@ impl<'a> Lowerer<'a> {
             simulate,
             reference,
             params: std::mem::take(&mut self.params),
-        })
+        };
+        if let Some(s) = self.simulate.clone() {
+            self.check_mesh_method(&s, &scene);
+            if self.has_errors() {
+                return None;
+            }
+        }
+        Some(scene)
     }
 
     /// The directory relative paths in a file are resolved in.

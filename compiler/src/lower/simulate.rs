@@ -2,8 +2,8 @@
 
 use mbdc_dsl::ast::{Expr, ItemKind};
 use mbdc_runtime::scene::{
-    BodyReference, Factorization, Fn1, Gyroscopic, LintForm, MethodSpec, OutputFormat, OutputSpec,
-    Reference, Relaxation, Simulate, StaggeredOptions,
+    BodyReference, Factorization, Fn1, Gyroscopic, LintForm, MeshMethod, MethodSpec, OutputFormat,
+    OutputSpec, Reference, Relaxation, Simulate, StaggeredOptions,
 };
 
 use super::body::num;
@@ -14,7 +14,12 @@ use crate::diag::{codes, Diagnostic};
 use crate::units::Dim;
 use crate::value::{Value, Var};
 
-const SIM_KEYS: &[Key] = &[one("duration"), one("step"), one("method")];
+const SIM_KEYS: &[Key] = &[
+    one("duration"),
+    one("step"),
+    one("method"),
+    one("mesh_method"),
+];
 const OUTPUT_KEYS: &[Key] = &[
     one("every"),
     one("format"),
@@ -98,6 +103,19 @@ impl<'a> Lowerer<'a> {
         if let Some(p) = props.get("method") {
             method = self.method(&p.values[0], None, sc);
         }
+        let mesh_method = match props.value("mesh_method") {
+            Some(e) => self.keyword(
+                e,
+                sc,
+                "mesh_method",
+                &[
+                    ("central_difference", MeshMethod::CentralDifference),
+                    ("newmark", MeshMethod::Newmark),
+                    ("static", MeshMethod::Static),
+                ],
+            ),
+            None => Ok(MeshMethod::default()),
+        };
         let mut output: R<OutputSpec> = Ok(OutputSpec::default());
         let mut output_seen: Option<mbdc_dsl::ast::Span> = None;
         for item in &props.decls {
@@ -169,7 +187,8 @@ impl<'a> Lowerer<'a> {
                 }
             }
         }
-        let (duration, step, method, output) = (duration?, step?, method?, output?);
+        let (duration, step, method, mesh_method, output) =
+            (duration?, step?, method?, mesh_method?, output?);
         if step > duration {
             self.report(
                 Diagnostic::warning(
@@ -205,8 +224,100 @@ impl<'a> Lowerer<'a> {
             duration,
             step,
             method,
+            mesh_method,
             output,
         })
+    }
+
+    /// An implicit `mesh_method` (`newmark`, `static`) on a scene it cannot analyse: beside
+    /// bodies, joints or beams (an error at `mesh_method`), or with a mesh whose stiffness is
+    /// not linear (plastic, `strain green`, viscous hourglass control, ties; an error at
+    /// `mesh_method` naming the mesh); without meshes, a warning.
+    pub(crate) fn check_mesh_method(&mut self, s: &Single<'a>, scene: &mbdc_runtime::scene::Scene) {
+        use mbdc_runtime::scene::{
+            HourglassControl, MeshCondition, MeshIntegration, MeshKinematics,
+        };
+        let m = scene.simulate.mesh_method;
+        if !m.is_implicit() {
+            return;
+        }
+        let ItemKind::Decl {
+            body: Some(block), ..
+        } = &s.item.kind
+        else {
+            return;
+        };
+        let Some(span) = block.items.iter().find_map(|it| match &it.kind {
+            ItemKind::Prop { key, .. } if key.name == "mesh_method" => Some(it.span),
+            _ => None,
+        }) else {
+            return;
+        };
+        let name = m.name();
+        let file = s.sc.file;
+        if scene.meshes.is_empty() {
+            self.report(
+                Diagnostic::warning(
+                    codes::INVALID_VALUE,
+                    format!("`mesh_method {name}` has no effect: the model has no mesh"),
+                )
+                .primary(file, span, ""),
+            );
+            return;
+        }
+        let others = scene.bodies.len() + scene.joints.len() + scene.beams.len();
+        if others > 0 {
+            self.report(
+                Diagnostic::error(
+                    codes::INVALID_VALUE,
+                    format!(
+                        "`mesh_method {name}` analyses models of meshes alone, and this one has {} bodies, {} joints and {} beams",
+                        scene.bodies.len(),
+                        scene.joints.len(),
+                        scene.beams.len()
+                    ),
+                )
+                .primary(file, span, "")
+                .help("use `mesh_method central_difference` (the default) to simulate meshes beside bodies, or analyse the mesh in a model of its own"),
+            );
+            return;
+        }
+        for mesh in &scene.meshes {
+            let f = &mesh.formulation;
+            let why = if mesh.material.plastic.is_some() {
+                Some("its material is plastic: the stiffness changes as it yields")
+            } else if f.kinematics == MeshKinematics::Green {
+                Some("it has `strain green`: large rotations change the stiffness with the configuration")
+            } else if matches!(
+                f.integration,
+                MeshIntegration::Reduced {
+                    hourglass: HourglassControl::Viscous { .. }
+                }
+            ) {
+                Some("its one-point elements have viscous hourglass control, which gives the hourglass modes no stiffness (use `hourglass stiffness(0.05)` or `integration full`)")
+            } else if mesh
+                .conditions
+                .iter()
+                .any(|c| matches!(c, MeshCondition::Tie { .. }))
+            {
+                Some("it is tied to a body")
+            } else {
+                None
+            };
+            if let Some(why) = why {
+                self.report(
+                    Diagnostic::error(
+                        codes::INVALID_VALUE,
+                        format!(
+                            "`mesh_method {name}` solves with the linear elastic, small-strain stiffness, and mesh '{}' cannot use it: {why}",
+                            mesh.name
+                        ),
+                    )
+                    .primary(file, span, "")
+                    .help("use `mesh_method central_difference` (the default), which simulates every mesh"),
+                );
+            }
+        }
     }
 
     fn method(

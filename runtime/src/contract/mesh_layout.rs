@@ -6,7 +6,7 @@
 //! so are the plans of the other assembly strategies ([`super::mesh_plan`]).
 
 use super::mesh_plan::AssemblyPlan;
-use super::scene::{ElementKind, Fn1, Material, MeshFormulation};
+use super::scene::{ElementKind, Fn1, Material, MeshFormulation, MeshMethod};
 
 /// The meshes of a system (empty for a scene without meshes).
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -42,6 +42,8 @@ pub struct MeshLayout {
     pub tied_bodies: Vec<TiedBody>,
     /// The assembly strategy and its plans (colours, partitions, interface).
     pub assembly: AssemblyPlan,
+    /// How the meshes are analysed (the scene's `simulate { mesh_method }`).
+    pub method: MeshMethod,
 }
 
 impl MeshLayout {

@@ -759,8 +759,47 @@ pub struct Simulate {
     pub step: f64,
     /// Integration method and its options.
     pub method: MethodSpec,
+    /// How the finite-element meshes are analysed (absent in scenes written before it
+    /// existed: the explicit central difference).
+    #[serde(default)]
+    pub mesh_method: MeshMethod,
     /// Output settings.
     pub output: OutputSpec,
+}
+
+/// How the finite-element meshes of a scene are analysed (`simulate { mesh_method NAME }`;
+/// docs/methods.md, "Meshes: implicit analyses").
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum MeshMethod {
+    /// Explicit central difference (lumped mass, no linear solve, conditionally stable).
+    #[default]
+    CentralDifference,
+    /// Implicit Newmark average acceleration (the trapezoidal rule): `K + (4/h²) M`
+    /// factored once, unconditionally stable; linear elastic, small strain.
+    Newmark,
+    /// Linear static: `K u(t) = f(t)` solved at every step time (loads and prescribed
+    /// displacements as functions of t), no inertia; linear elastic, small strain.
+    Static,
+}
+
+impl MeshMethod {
+    /// The name as written in `.mbd` files.
+    pub fn name(self) -> &'static str {
+        match self {
+            MeshMethod::CentralDifference => "central_difference",
+            MeshMethod::Newmark => "newmark",
+            MeshMethod::Static => "static",
+        }
+    }
+
+    /// All names, in documentation order.
+    pub const NAMES: [&'static str; 3] = ["central_difference", "newmark", "static"];
+
+    /// Whether it solves with the assembled stiffness (Newmark, static).
+    pub fn is_implicit(self) -> bool {
+        self != MeshMethod::CentralDifference
+    }
 }
 
 impl Default for Simulate {
@@ -769,6 +808,7 @@ impl Default for Simulate {
             duration: 1.0,
             step: 1e-3,
             method: MethodSpec::Staggered(StaggeredOptions::default()),
+            mesh_method: MeshMethod::default(),
             output: OutputSpec::default(),
         }
     }

@@ -10,6 +10,8 @@
 //!
 //! Finite-element meshes ([`mesh_dynamics`]) are advanced beside them with the same step,
 //! and node sets tied to bodies couple the two in the staggered scheme ([`mesh_ties`]).
+//! Scenes of meshes alone may instead use an implicit analysis ([`mesh_implicit`]: Newmark
+//! average acceleration or linear static, `simulate { mesh_method }`).
 //!
 //! All integrators are generic over the system, so generated code is monomorphized
 //! into them, and none allocates inside [`Integrator::step`].
@@ -21,6 +23,7 @@ pub mod beam_forces;
 pub mod common;
 pub mod mesh_assembly;
 pub mod mesh_dynamics;
+pub mod mesh_implicit;
 pub mod mesh_kernels;
 pub mod mesh_ties;
 pub mod natural;
@@ -186,6 +189,9 @@ pub fn make<'a, S: System + 'a>(
                 "the scene has nothing to simulate (no body, beam or mesh)".into(),
             )),
         };
+    }
+    if meshes.method.is_implicit() {
+        return mesh_implicit::make(sys, h, start);
     }
     if matches!(method, M::StateTime { .. }) {
         return Err(StartError::Unsupported(method.name()));

@@ -44,6 +44,10 @@
 //! | [`ColumnSelector`] | `m × n` | Gaussian elimination with complete pivoting (own code): independent columns, dependent columns, rank, dependent rows |
 //! | [`KSolver`] | `εI + s·BM⁻¹Bᵀ` | assembly + one of the above, dense or sparse chosen by size and density |
 //!
+//! Finite-element matrices (the meshes' implicit analyses): [`SymmetricAssembly`]
+//! ([`assembled`]) holds the pattern of an assembled stiffness with its constrained dofs
+//! eliminated and the element → global scatter, for [`SparseCholesky`].
+//!
 //! Why faer for the sparse path: its numeric refactorization takes the value array, the
 //! output array and a `MemStack` from the caller, so a factorization per step performs no
 //! allocation (checked by `runtime/tests/alloc_free_solvers_output.rs` with a counting allocator), and its AMD
@@ -87,6 +91,7 @@
 //!
 //! [`Layout`]: crate::contract::system::Layout
 
+pub mod assembled;
 mod dense;
 mod kmatrix;
 mod solver;
@@ -95,6 +100,7 @@ mod sparse;
 #[cfg(test)]
 pub(crate) mod testutil;
 
+pub use assembled::{ElementDofs, SymmetricAssembly};
 pub use dense::{
     ColumnSelection, ColumnSelector, DenseCholesky, DenseLu, LuStats, PivotedCholesky,
 };

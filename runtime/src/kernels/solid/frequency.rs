@@ -8,16 +8,14 @@
 //! - bar2: `2c/L` in closed form (exact with lumped mass).
 //! - The others: the element stiffness `K_e` (small strain at the reference configuration,
 //!   with the B-bar option and the hourglass *stiffness* of reduced elements; the viscous
-//!   form adds no stiffness) is formed column by column from [`respond`] with unit
-//!   displacements — the small-strain response is linear, so the columns are exact, not
-//!   finite differences — then `ω² = λ_max(M^{-1/2} K M^{-1/2})` by nalgebra's symmetric
+//!   form adds no stiffness) is [`super::element_stiffness`] (formed column by column from
+//!   `respond` with unit displacements: exact, not finite differences), then `ω² = λ_max(M^{-1/2} K M^{-1/2})` by nalgebra's symmetric
 //!   eigenvalues on a stack matrix of the element's size (6, 8, 12 or 24; no heap). The
 //!   result is raised by a relative 1e-10 so that eigen-solver round-off cannot make it an
 //!   underestimate.
 
-use super::{
-    lumped_masses, respond, Elastic, ElementOptions, ElementResponse, Kinematics, MAX_NODES,
-};
+use super::stiffness::element_stiffness;
+use super::{lumped_masses, Elastic, ElementOptions};
 use crate::contract::scene::ElementKind;
 use nalgebra::SMatrix;
 
@@ -51,29 +49,9 @@ pub(super) fn max_frequency(
     }
     let (n, d) = (kind.nodes(), kind.dim());
     let dofs = n * d;
-    let lin = ElementOptions {
-        kinematics: Kinematics::SmallStrain,
-        ..*opts
-    };
     let m = lumped_masses(kind, opts, mat.rho, x0);
-    let zero = [[0.0; 3]; MAX_NODES];
-    let mut u = zero;
-    let mut out = ElementResponse::default();
-    let mut k = [[0.0; 24]; 24];
-    for a in 0..n {
-        for i in 0..d {
-            u[a][i] = 1.0;
-            respond(kind, &lin, mat, x0, &u[..n], &zero[..n], &mut out);
-            u[a][i] = 0.0;
-            let col = a * d + i;
-            for b in 0..n {
-                for j in 0..d {
-                    k[b * d + j][col] = out.f[b][j];
-                }
-            }
-        }
-    }
-    // Symmetrise (round-off) and scale: A = M^{-1/2} K M^{-1/2}.
+    let k = element_stiffness(kind, opts, mat, x0);
+    // Scale (K is symmetric): A = M^{-1/2} K M^{-1/2}.
     let mut s = [0.0; 24];
     for r in 0..dofs {
         s[r] = 1.0 / m[r / d].sqrt();
@@ -81,7 +59,7 @@ pub(super) fn max_frequency(
     let mut a = [[0.0; 24]; 24];
     for r in 0..dofs {
         for c in 0..dofs {
-            a[r][c] = 0.5 * (k[r][c] + k[c][r]) * s[r] * s[c];
+            a[r][c] = k[r][c] * s[r] * s[c];
         }
     }
     largest_eigenvalue(&a, dofs).max(0.0).sqrt() * (1.0 + 1e-10)

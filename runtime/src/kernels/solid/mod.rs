@@ -28,7 +28,7 @@
 //! its coefficients documented there), the element types [`bar2`], [`tri3`], [`quad4`],
 //! [`tet4`], [`hex8`] (public, with fixed-size-array entry points), `element_kernel` (one
 //! zero-sized type per kind behind the [`ElementKernel`] trait, for loops monomorphized per
-//! type; [`respond`] and [`respond_plastic`] dispatch to them), `frequency` ([`max_frequency`]), `shape` ([`shape_check`]) and `tests`.
+//! type; [`respond`] and [`respond_plastic`] dispatch to them), `frequency` ([`max_frequency`]), `stiffness` ([`element_stiffness`], the small-strain `K_e` of the implicit analyses), `shape` ([`shape_check`]) and `tests`.
 //!
 //! Conventions: forces are internal (`M a = f_ext − f`); stress and strain are volume means
 //! in Voigt order `xx yy zz yz xz xy` with tensor shear strains; 2-D kinds take their plane
@@ -46,6 +46,7 @@ pub use element_kernel::{
     Tri3PlaneStress,
 };
 pub use plasticity::{Plastic, PlasticPoints, PlasticResponse};
+pub use stiffness::{element_stiffness, ElementMatrix, MAX_DOFS};
 
 pub mod bar2;
 mod continuum;
@@ -57,6 +58,7 @@ mod material;
 pub mod plasticity;
 pub mod quad4;
 mod shape;
+mod stiffness;
 #[cfg(test)]
 mod tests;
 pub mod tet4;
