@@ -194,7 +194,8 @@ pub fn method_text(m: &MethodSpec) -> String {
             }
             v
         }
-        MethodSpec::CoordinatePartitioning => vec![],
+        MethodSpec::CoordinatePartitioning | MethodSpec::RungeKutta4 => vec![],
+        MethodSpec::DormandPrince { tolerance } => vec![format!("tolerance {}", short(*tolerance))],
         MethodSpec::ImplicitTrapezoid {
             tolerance,
             max_iterations,

@@ -1,6 +1,7 @@
 //! `natural_partitioning` allocates nothing per step (counting global allocator, per
 //! thread): on a scene with a closed loop (cut joint, Newton + PCG path), a tree of
-//! revolute, universal and prismatic joints and a free body; and on a pure tree.
+//! revolute, universal and prismatic joints and a free body; and on a pure tree, with
+//! `rk4` and `dopri5` too.
 
 use mbdc_runtime::integrators::{make, State};
 use mbdc_runtime::interp::{Interp, IDENTITY};
@@ -169,9 +170,13 @@ fn scene(with_loop: bool) -> Scene {
 }
 
 fn steps_allocate(with_loop: bool) -> usize {
+    steps_allocate_with("natural_partitioning", with_loop)
+}
+
+fn steps_allocate_with(name: &str, with_loop: bool) -> usize {
     let sys = Interp::new(&scene(with_loop)).expect("scene");
     let start = State::initial(&sys);
-    let method = MethodSpec::default_for("natural_partitioning").unwrap();
+    let method = MethodSpec::default_for(name).unwrap();
     let mut it = make(&method, &sys, 1e-3, &start).expect("start");
     let mut st = State::initial(&sys);
     for _ in 0..3 {
@@ -197,4 +202,13 @@ fn steps_with_a_cut_joint_do_not_allocate() {
 #[test]
 fn steps_of_a_tree_do_not_allocate() {
     assert_eq!(steps_allocate(false), 0);
+}
+
+/// The Runge–Kutta methods on the same tree stages (the tree solve per stage, the
+/// projection, the controller and the dense output) allocate nothing either.
+#[test]
+fn runge_kutta_steps_of_a_tree_do_not_allocate() {
+    for name in ["rk4", "dopri5"] {
+        assert_eq!(steps_allocate_with(name, false), 0, "{name}");
+    }
 }

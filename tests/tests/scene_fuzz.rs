@@ -323,6 +323,8 @@ const VARIANTS: &[&str] = &[
     "CoordinatePartitioning",
     "ImplicitTrapezoid",
     "NaturalPartitioning",
+    "RungeKutta4",
+    "DormandPrince",
     "StateTime",
     "Exact",
     "Midpoint",
@@ -774,7 +776,10 @@ fn each_float(s: &mut Scene, f: &mut dyn FnMut(&mut f64)) {
             }
             f(tolerance);
         }
-        MethodSpec::CoordinatePartitioning | MethodSpec::StateTime { .. } => {}
+        MethodSpec::DormandPrince { tolerance } => f(tolerance),
+        MethodSpec::CoordinatePartitioning
+        | MethodSpec::RungeKutta4
+        | MethodSpec::StateTime { .. } => {}
     }
     if let Some(r) = &mut s.reference {
         for b in &mut r.bodies {

@@ -48,6 +48,7 @@ pub(crate) fn method_options(name: &str) -> &'static [&'static str] {
         "penalty" => &["epsilon"],
         "implicit_trapezoid" => &["tolerance", "max_iterations"],
         "natural_partitioning" => &["epsilon", "tolerance", "max_iterations"],
+        "dopri5" => &["tolerance"],
         "state_time" => &["steps_per_element"],
         _ => &[],
     }
@@ -500,7 +501,8 @@ impl<'a> Lowerer<'a> {
                 *epsilon = Some(self.epsilon(v, sc)?)
             }
             (MethodSpec::ImplicitTrapezoid { tolerance, .. }, "tolerance")
-            | (MethodSpec::NaturalPartitioning { tolerance, .. }, "tolerance") => {
+            | (MethodSpec::NaturalPartitioning { tolerance, .. }, "tolerance")
+            | (MethodSpec::DormandPrince { tolerance }, "tolerance") => {
                 *tolerance = self.positive(v, sc, Dim::NONE, "a tolerance")?
             }
             (MethodSpec::ImplicitTrapezoid { max_iterations, .. }, "max_iterations") => {

@@ -1016,6 +1016,16 @@ pub enum MethodSpec {
         #[serde(default, skip_serializing_if = "Option::is_none")]
         max_iterations: Option<u32>,
     },
+    /// Classical fourth-order Runge–Kutta on the tree coordinates of natural partitioning,
+    /// fixed step (tree joints only).
+    RungeKutta4,
+    /// Dormand–Prince 5(4) on the tree coordinates, error-controlled (PI controller), with
+    /// dense output at the output times; `step` is the first and the largest internal step
+    /// (tree joints only).
+    DormandPrince {
+        /// Absolute and relative tolerance of the embedded error estimate.
+        tolerance: f64,
+    },
     /// State-time formulation (time elements, Newton on the trajectory).
     StateTime {
         /// Time steps per time element.
@@ -1033,18 +1043,22 @@ impl MethodSpec {
             MethodSpec::CoordinatePartitioning => "coordinate_partitioning",
             MethodSpec::ImplicitTrapezoid { .. } => "implicit_trapezoid",
             MethodSpec::NaturalPartitioning { .. } => "natural_partitioning",
+            MethodSpec::RungeKutta4 => "rk4",
+            MethodSpec::DormandPrince { .. } => "dopri5",
             MethodSpec::StateTime { .. } => "state_time",
         }
     }
 
     /// All method names, in documentation order.
-    pub const NAMES: [&'static str; 7] = [
+    pub const NAMES: [&'static str; 9] = [
         "staggered",
         "baumgarte",
         "penalty",
         "coordinate_partitioning",
         "implicit_trapezoid",
         "natural_partitioning",
+        "rk4",
+        "dopri5",
         "state_time",
     ];
 
@@ -1067,6 +1081,8 @@ impl MethodSpec {
                 tolerance: 1e-12,
                 max_iterations: None,
             },
+            "rk4" => MethodSpec::RungeKutta4,
+            "dopri5" => MethodSpec::DormandPrince { tolerance: 1e-9 },
             "state_time" => MethodSpec::StateTime {
                 steps_per_element: 4,
             },

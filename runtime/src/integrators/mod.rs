@@ -7,6 +7,7 @@
 //! | `implicit_trapezoid` | [`trapezoid`] | simultaneous trapezoidal rule with Newton, notes A §1.2 |
 //! | `staggered`, `baumgarte`, `penalty` | [`staggered`] | two-stage CINT with three constraint-force modules, notes A §1.4–1.9, C §3 |
 //! | `natural_partitioning` | [`natural`] | tree null space, Schur-complement PCG, cut joints by staggered stabilization, notes C §1 |
+//! | `rk4`, `dopri5` | [`runge_kutta`] | explicit Runge–Kutta on the tree coordinates, error control and dense output (Hairer–Nørsett–Wanner I §II) |
 //!
 //! Finite-element meshes ([`mesh_dynamics`]) are advanced beside them with the same step,
 //! and node sets tied to bodies couple the two in the staggered scheme ([`mesh_ties`]).
@@ -28,6 +29,7 @@ pub mod mesh_kernels;
 pub mod mesh_ties;
 pub mod natural;
 pub mod partitioning;
+pub mod runge_kutta;
 pub mod staggered;
 #[cfg(test)]
 pub(crate) mod testsys;
@@ -291,6 +293,20 @@ fn rigid<T: System>(
             natural::Natural::new(sys, h, *epsilon, *tolerance, start)?
                 .with_pcg_limit(*max_iterations),
         ),
+        M::RungeKutta4 => Rigid::RungeKutta(runge_kutta::RungeKutta::new(
+            sys,
+            &runge_kutta::tableau::RK4,
+            h,
+            None,
+            start,
+        )?),
+        M::DormandPrince { tolerance } => Rigid::RungeKutta(runge_kutta::RungeKutta::new(
+            sys,
+            &runge_kutta::tableau::DOPRI5,
+            h,
+            Some(*tolerance),
+            start,
+        )?),
         M::StateTime { .. } => return Err(StartError::Unsupported(method.name())),
     }))
 }
@@ -304,6 +320,7 @@ enum Rigid {
     Partitioning(partitioning::Partitioning),
     Trapezoid(trapezoid::Trapezoid),
     Natural(natural::Natural),
+    RungeKutta(runge_kutta::RungeKutta),
 }
 
 /// `$call` on the integrator inside a [`Rigid`].
@@ -314,6 +331,7 @@ macro_rules! each {
             Rigid::Partitioning($i) => $call,
             Rigid::Trapezoid($i) => $call,
             Rigid::Natural($i) => $call,
+            Rigid::RungeKutta($i) => $call,
         }
     };
 }

@@ -24,8 +24,9 @@ pub struct MethodEntry {
     pub theory: Option<f64>,
 }
 
-/// The theoretical order of a method (notes A §1): all the implemented methods are second
-/// order; penalty's constraint error is O(h²) with its default ε = h²·max diag K.
+/// The theoretical order of a method (notes A §1): the constraint-stabilized methods are
+/// second order (penalty's constraint error is O(h²) with its default ε = h²·max diag K);
+/// `rk4` fourth; `dopri5` none in h (its error follows its tolerance).
 pub fn theoretical_order(name: &str) -> Option<f64> {
     match name {
         "staggered"
@@ -34,6 +35,8 @@ pub fn theoretical_order(name: &str) -> Option<f64> {
         | "coordinate_partitioning"
         | "implicit_trapezoid"
         | "natural_partitioning" => Some(2.0),
+        // at a fixed step; dopri5 runs to its tolerance, the step is only its largest
+        "rk4" => Some(4.0),
         _ => None,
     }
 }
@@ -81,6 +84,8 @@ pub fn describe_options(spec: &MethodSpec) -> String {
             }
             s
         }
+        MethodSpec::RungeKutta4 => String::new(),
+        MethodSpec::DormandPrince { tolerance } => format!("tolerance {tolerance:e}"),
         MethodSpec::StateTime { steps_per_element } => {
             format!("{steps_per_element} steps per time element")
         }

@@ -583,6 +583,44 @@ impl Natural {
         st
     }
 
+    /// The body accelerations `ü = A q̈ + Ȧq̇` of the tree's reduced equations at
+    /// `(t, pose, vel)` into `out` (body order): applied forces, gyroscopic term and
+    /// velocity-product terms all at `vel`, joint blocks at `pose`, one factorization and
+    /// one tree solve (`O(N)`). Without cut forces: the explicit Runge–Kutta methods
+    /// ([`super::runge_kutta`]) take their stage derivatives from here. Does not allocate.
+    pub(crate) fn tree_accelerations<S: System>(
+        &mut self,
+        sys: &S,
+        t: f64,
+        pose: &[Pose],
+        vel: &[Twist],
+        out: &mut [Twist],
+    ) -> Result<(), StepError> {
+        sys.applied(t, pose, vel, &mut self.applied);
+        self.vs.copy_from_slice(vel);
+        self.forces_backward(sys, pose, true, Factor::Make)?;
+        self.free_forward();
+        for (p, l) in self.tree.links.iter().enumerate() {
+            out[l.body] = self.nodes[p].a0;
+        }
+        Ok(())
+    }
+
+    /// Put `(pose, vel)` back on the tree: the positions onto the joints root → leaf
+    /// ([`tree_joints::project`]), then the velocities onto the null space `u = A q̇` at
+    /// the projected positions. The identity on a consistent state, smooth near it. Does
+    /// not allocate.
+    pub(crate) fn tree_project<S: System>(
+        &mut self,
+        sys: &S,
+        pose: &mut [Pose],
+        vel: &mut [Twist],
+    ) {
+        self.project_positions(sys, pose);
+        self.kinematics(sys, pose);
+        self.project_velocities(pose, vel);
+    }
+
     /// Set the smallest level size run in parallel (for measurements).
     pub fn set_par_min(&mut self, n: usize) {
         self.tree.sched.par_min = n.max(2);
@@ -1505,7 +1543,7 @@ impl<S: System> Integrator<S> for Natural {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use nalgebra::{Matrix3, Quaternion};
     use proptest::prelude::*;
 

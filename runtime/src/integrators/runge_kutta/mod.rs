@@ -1,0 +1,495 @@
+//! Explicit Runge–Kutta methods on the tree coordinates of natural partitioning: `rk4`
+//! (classical, fixed step) and `dopri5` (Dormand–Prince 5(4), error-controlled, with
+//! dense output).
+//!
+//! ## The differential equation
+//!
+//! The state is per body the pose (mass-centre position, Euler parameters) and the twist
+//! (mass-centre velocity, body-frame angular velocity), 13 numbers, with
+//!
+//! ```text
+//! ṙ = v,   q̇ = ½ q̂ ⊗ (0, ω),   (v̇, ω̇) = ü(t, r, q̂, v, ω),   q̂ = q/|q|,
+//! ```
+//!
+//! `ü = A q̈ + Ȧq̇` the body accelerations of the tree's reduced equations
+//! `AᵀMA q̈ = Aᵀ(F − ω × Jω − MȦq̇)` ([`super::natural`]): every stage derivative is one
+//! factorization and one tree solve, `O(N)` (`Natural::tree_accelerations`).
+//! The right-hand side is smooth near the constraint manifold (unit quaternions, tree
+//! joints satisfied, `u = A q̇`), and the manifold is invariant under its exact flow, so
+//! the Runge–Kutta method applied to it has its classical order: a stage evaluates the
+//! dynamics at `q/|q|`, which agrees with the unnormalized equation on `|q| = 1` and
+//! leaves `|q|` invariant (`q · (q ⊗ (0, ω)) = 0`).
+//!
+//! ## Projection after each step, and why it keeps the order
+//!
+//! After each step the new state is put back on the manifold: `|q| = 1`, the positions
+//! onto the tree joints root → leaf
+//! ([`tree_joints::project`](crate::kernels::tree_joints::project)), the velocities onto
+//! the null space `u = A q̇` at those positions (`Natural::tree_project`). The projection
+//! is smooth and the identity on the manifold, and the step's result is within its local
+//! error `O(h^{p+1})` of the exact solution, which lies on the manifold; so the projection
+//! moves it by `O(h^{p+1})` and the global error stays `O(h^p)` (Hairer–Lubich–Wanner,
+//! *Geometric Numerical Integration*, §IV.4, Theorem 4.2). The joints then hold to
+//! round-off at every step and every output frame, without drift.
+//!
+//! The FSAL stage of `dopri5` is evaluated at the step's unprojected result: the next step
+//! starts from the projected state with that derivative, a difference of the projection's
+//! size (`O(h^{p+1})`, times h), which keeps the order and saves one evaluation per step.
+//!
+//! ## Error control and output
+//!
+//! `dopri5` ([`controller`]): the embedded fourth-order estimate in the weighted RMS norm
+//! with absolute and relative tolerance `tol`, the PI controller of Gustafsson with
+//! Hairer's `DOPRI5` constants, the user's `step` as the first and the largest internal
+//! step. Each call of [`Integrator::step`] advances the reported time by exactly `step`:
+//! the internal steps run past it and the output state there comes from the continuous
+//! extension ([`dense`]), projected onto the manifold like a step's result (the internal
+//! sequence goes on from its own steps, not from the output). `rk4` takes one step of
+//! `step` per call.
+//!
+//! Closed loops (cut joints, drivers, locks and every other row outside the spanning tree)
+//! are refused at the start for now, naming the joint.
+
+pub mod controller;
+pub mod dense;
+pub mod tableau;
+
+use nalgebra::{Quaternion, Vector3};
+
+use super::natural::{tree::Tree, Natural};
+use super::{Integrator, StartError, State, StepError, StepInfo};
+use crate::contract::math::quat_rate;
+use crate::contract::persist::{self, StateVisitor};
+use crate::contract::system::{Pose, System, Twist};
+use controller::Controller;
+use tableau::Tableau;
+
+/// Numbers per body in the state vector: position, Euler parameters, velocity, ω.
+const PER_BODY: usize = 13;
+
+/// Most internal steps (accepted and rejected) within one call of `step`.
+const MAX_ATTEMPTS: u64 = 1_000_000;
+
+/// An explicit Runge–Kutta method on the tree (see the module doc).
+pub struct RungeKutta {
+    tab: &'static Tableau,
+    nat: Natural,
+    /// The reported step (the driver's `step`; the largest internal step).
+    h: f64,
+    /// Tolerance and controller of the error-controlled methods.
+    control: Option<(f64, Controller)>,
+    /// The next internal step.
+    h_next: f64,
+    /// Internal time and state.
+    t: f64,
+    y: Vec<f64>,
+    /// The state at the start of the last accepted step (dense output).
+    y_old: Vec<f64>,
+    h_last: f64,
+    y_new: Vec<f64>,
+    y_stage: Vec<f64>,
+    err: Vec<f64>,
+    /// Stage derivatives.
+    k: Vec<Vec<f64>>,
+    /// `k[0]` holds `f(t, y)`.
+    k0_valid: bool,
+    /// The last stage of the accepted step is the derivative at its result (FSAL).
+    fsal_pending: bool,
+    // body-level buffers
+    pose: Vec<Pose>,
+    vel: Vec<Twist>,
+    acc: Vec<Twist>,
+    /// The reported state at `t_out`.
+    out_pose: Vec<Pose>,
+    out_vel: Vec<Twist>,
+    t0: f64,
+    t_out: f64,
+    reported_steps: u64,
+    active: Vec<bool>,
+    // statistics
+    steps: u64,
+    rejected: u64,
+    evaluations: u64,
+    error_norm_max: f64,
+    local_error_max: f64,
+    step_min: f64,
+    step_max: f64,
+}
+
+/// `y` (13 per body) into poses (Euler parameters normalized) and twists.
+fn unpack(y: &[f64], pose: &mut [Pose], vel: &mut [Twist]) {
+    for (b, (p, v)) in pose.iter_mut().zip(vel.iter_mut()).enumerate() {
+        let s = &y[PER_BODY * b..PER_BODY * (b + 1)];
+        *p = Pose::new(
+            Vector3::new(s[0], s[1], s[2]),
+            Quaternion::new(s[3], s[4], s[5], s[6]),
+        );
+        *v = Twist {
+            v: Vector3::new(s[7], s[8], s[9]),
+            w: Vector3::new(s[10], s[11], s[12]),
+        };
+    }
+}
+
+/// Poses and twists into `y`.
+fn pack(pose: &[Pose], vel: &[Twist], y: &mut [f64]) {
+    for (b, (p, v)) in pose.iter().zip(vel).enumerate() {
+        let s = &mut y[PER_BODY * b..PER_BODY * (b + 1)];
+        s[..3].copy_from_slice(p.r.as_slice());
+        s[3..7].copy_from_slice(&[p.q.w, p.q.i, p.q.j, p.q.k]);
+        s[7..10].copy_from_slice(v.v.as_slice());
+        s[10..13].copy_from_slice(v.w.as_slice());
+    }
+}
+
+/// The right-hand side at `(t, y)` into `out` (see the module doc), with the body-level
+/// buffers. One tree solve.
+#[allow(clippy::too_many_arguments)]
+fn rhs<S: System>(
+    nat: &mut Natural,
+    sys: &S,
+    t: f64,
+    y: &[f64],
+    pose: &mut [Pose],
+    vel: &mut [Twist],
+    acc: &mut [Twist],
+    out: &mut [f64],
+) -> Result<(), StepError> {
+    unpack(y, pose, vel);
+    nat.tree_accelerations(sys, t, pose, vel, acc)?;
+    for b in 0..pose.len() {
+        let o = &mut out[PER_BODY * b..PER_BODY * (b + 1)];
+        let qd = quat_rate(&pose[b].q, &vel[b].w);
+        o[..3].copy_from_slice(vel[b].v.as_slice());
+        o[3..7].copy_from_slice(&[qd.w, qd.i, qd.j, qd.k]);
+        o[7..10].copy_from_slice(acc[b].v.as_slice());
+        o[10..13].copy_from_slice(acc[b].w.as_slice());
+    }
+    Ok(())
+}
+
+impl RungeKutta {
+    /// The method `tab` on `sys` with the reported step `h`, starting from `start`.
+    /// `tolerance`: error control with that tolerance (the tableau must have an embedded
+    /// estimate; `h` is then the first and the largest internal step); `None`: fixed steps
+    /// of `h`. Refuses systems with rows outside the spanning tree (closed loops, drivers,
+    /// locks), naming the joint.
+    pub fn new<S: System>(
+        sys: &S,
+        tab: &'static Tableau,
+        h: f64,
+        tolerance: Option<f64>,
+        start: &State,
+    ) -> Result<RungeKutta, StartError> {
+        let layout = sys.layout();
+        if let Some(&r) = Tree::new(layout).cut_rows.first() {
+            let j = &layout.joints[layout.row_joint[r]];
+            return Err(StartError::Invalid(format!(
+                "{}: joint '{}' ({}) is not part of the spanning tree (it closes a loop, or is a driver, lock or other non-tree constraint); {} enforces tree joints only for now: use natural_partitioning or staggered for this scene",
+                tab.name, j.name, j.kind, tab.name
+            )));
+        }
+        if tolerance.is_some() && tab.e.is_empty() {
+            return Err(StartError::Invalid(format!(
+                "{} has no embedded error estimate: it runs with a fixed step",
+                tab.name
+            )));
+        }
+        let mut nat = Natural::new(sys, h, None, 1e-12, start).map_err(|e| match e {
+            StartError::Unsupported(_) => StartError::Unsupported(tab.name),
+            e => e,
+        })?;
+        let nb = layout.bodies();
+        let n = PER_BODY * nb;
+        let mut pose = start.pose.clone();
+        let mut vel = start.twist.clone();
+        nat.tree_project(sys, &mut pose, &mut vel);
+        let mut y = vec![0.0; n];
+        pack(&pose, &vel, &mut y);
+        let control = tolerance.map(|tol| (tol, Controller::new(tab.embedded_order)));
+        Ok(RungeKutta {
+            tab,
+            nat,
+            h,
+            control,
+            h_next: h,
+            t: start.t,
+            y_old: y.clone(),
+            h_last: 0.0,
+            y_new: vec![0.0; n],
+            y_stage: vec![0.0; n],
+            err: vec![0.0; n],
+            k: vec![vec![0.0; n]; tab.stages()],
+            k0_valid: false,
+            fsal_pending: false,
+            out_pose: pose.clone(),
+            out_vel: vel.clone(),
+            pose,
+            vel,
+            acc: vec![Twist::default(); nb],
+            y,
+            t0: start.t,
+            t_out: start.t,
+            reported_steps: 0,
+            active: start.active.clone(),
+            steps: 0,
+            rejected: 0,
+            evaluations: 0,
+            error_norm_max: 0.0,
+            local_error_max: 0.0,
+            step_min: f64::INFINITY,
+            step_max: 0.0,
+        })
+    }
+
+    /// One attempt of size `hs` from `(t, y)` into `y_new` (and the error estimate into
+    /// `err` for an embedded pair).
+    fn attempt<S: System>(&mut self, sys: &S, hs: f64) -> Result<(), StepError> {
+        let tab = self.tab;
+        let s = tab.stages();
+        if !self.k0_valid {
+            if self.fsal_pending {
+                self.k.swap(0, s - 1);
+            } else {
+                rhs(
+                    &mut self.nat,
+                    sys,
+                    self.t,
+                    &self.y,
+                    &mut self.pose,
+                    &mut self.vel,
+                    &mut self.acc,
+                    &mut self.k[0],
+                )?;
+                self.evaluations += 1;
+            }
+            self.k0_valid = true;
+            self.fsal_pending = false;
+        }
+        for i in 1..s {
+            let row = tab.a[i];
+            for (m, ys) in self.y_stage.iter_mut().enumerate() {
+                let mut acc = 0.0;
+                for (j, a) in row.iter().enumerate() {
+                    if *a != 0.0 {
+                        acc += a * self.k[j][m];
+                    }
+                }
+                *ys = self.y[m] + hs * acc;
+            }
+            let (_, tail) = self.k.split_at_mut(i);
+            rhs(
+                &mut self.nat,
+                sys,
+                self.t + tab.c[i] * hs,
+                &self.y_stage,
+                &mut self.pose,
+                &mut self.vel,
+                &mut self.acc,
+                &mut tail[0],
+            )?;
+            self.evaluations += 1;
+        }
+        if tab.fsal {
+            // the last stage is the result
+            self.y_new.copy_from_slice(&self.y_stage);
+        } else {
+            for (m, yn) in self.y_new.iter_mut().enumerate() {
+                let mut acc = 0.0;
+                for (j, b) in tab.b.iter().enumerate() {
+                    acc += b * self.k[j][m];
+                }
+                *yn = self.y[m] + hs * acc;
+            }
+        }
+        if !tab.e.is_empty() {
+            for (m, e) in self.err.iter_mut().enumerate() {
+                let mut acc = 0.0;
+                for (j, ej) in tab.e.iter().enumerate() {
+                    if *ej != 0.0 {
+                        acc += ej * self.k[j][m];
+                    }
+                }
+                *e = hs * acc;
+            }
+        }
+        Ok(())
+    }
+
+    /// Take the attempt of size `hs`: `y ← y_new` projected onto the manifold.
+    fn accept<S: System>(&mut self, sys: &S, hs: f64) {
+        std::mem::swap(&mut self.y_old, &mut self.y);
+        std::mem::swap(&mut self.y, &mut self.y_new);
+        unpack(&self.y, &mut self.pose, &mut self.vel);
+        self.nat.tree_project(sys, &mut self.pose, &mut self.vel);
+        pack(&self.pose, &self.vel, &mut self.y);
+        self.t += hs;
+        self.h_last = hs;
+        self.k0_valid = false;
+        self.fsal_pending = self.tab.fsal;
+        self.steps += 1;
+        self.step_min = self.step_min.min(hs);
+        self.step_max = self.step_max.max(hs);
+    }
+
+    /// The reported state from `y` (already projected) or, at `θ` inside the last step,
+    /// from the continuous extension, projected.
+    fn output<S: System>(&mut self, sys: &S, theta: Option<f64>) {
+        match theta {
+            None => {
+                self.out_pose.copy_from_slice(&self.pose);
+                self.out_vel.copy_from_slice(&self.vel);
+            }
+            Some(th) => {
+                dense::dopri5(
+                    &self.y_old,
+                    &self.y,
+                    &self.k,
+                    self.h_last,
+                    th,
+                    &mut self.y_stage,
+                );
+                unpack(&self.y_stage, &mut self.out_pose, &mut self.out_vel);
+                self.nat
+                    .tree_project(sys, &mut self.out_pose, &mut self.out_vel);
+            }
+        }
+    }
+
+    /// The error-controlled steps up to `target`, with the output there.
+    fn controlled<S: System>(&mut self, sys: &S, target: f64) -> Result<u32, StepError> {
+        let eps = 1e-12 * self.h;
+        let mut attempts: u64 = 0;
+        loop {
+            let hs = self.h_next.min(self.h);
+            self.attempt(sys, hs)?;
+            let (tol, ctl) = self.control.as_mut().expect("controlled method");
+            let norm = controller::error_norm(&self.err, &self.y, &self.y_new, *tol);
+            let (ok, next) = ctl.next(hs, norm);
+            attempts += 1;
+            if ok {
+                self.error_norm_max = self.error_norm_max.max(norm);
+                let local = self.err.iter().fold(0.0f64, |a, e| a.max(e.abs()));
+                self.local_error_max = self.local_error_max.max(local);
+                self.h_next = next;
+                self.accept(sys, hs);
+                if self.t >= target - eps {
+                    let theta = (target - (self.t - hs)) / hs;
+                    self.output(sys, (self.t > target + eps).then_some(theta));
+                    return Ok(attempts.min(u32::MAX as u64) as u32);
+                }
+            } else {
+                self.rejected += 1;
+                self.h_next = next;
+                let floor = 1e-14 * self.t.abs().max(self.h);
+                if !(next > floor) || attempts >= MAX_ATTEMPTS {
+                    return Err(StepError::NoConvergence {
+                        what: "the step-size control of dopri5 (the step shrank to round-off: the motion is too fast or not smooth for this tolerance)",
+                        iterations: attempts.min(u32::MAX as u64) as u32,
+                        residual: norm,
+                        row: None,
+                    });
+                }
+            }
+        }
+    }
+}
+
+impl<S: System> Integrator<S> for RungeKutta {
+    fn name(&self) -> &'static str {
+        self.tab.name
+    }
+
+    fn time(&self) -> f64 {
+        self.t_out
+    }
+
+    fn step_size(&self) -> f64 {
+        self.h
+    }
+
+    fn step(&mut self, sys: &S) -> Result<StepInfo, StepError> {
+        let target = self.t0 + (self.reported_steps + 1) as f64 * self.h;
+        let iterations = if self.control.is_some() {
+            self.controlled(sys, target)?
+        } else {
+            let hs = target - self.t;
+            self.attempt(sys, hs)?;
+            self.accept(sys, hs);
+            self.output(sys, None);
+            0
+        };
+        self.reported_steps += 1;
+        self.t_out = target;
+        Ok(StepInfo { iterations })
+    }
+
+    fn state(&self, _sys: &S, out: &mut State) {
+        out.t = self.t_out;
+        out.pose.copy_from_slice(&self.out_pose);
+        out.twist.copy_from_slice(&self.out_vel);
+        out.lambda.iter_mut().for_each(|l| *l = 0.0);
+    }
+
+    fn active(&self) -> &[bool] {
+        &self.active
+    }
+
+    fn stats(&self) -> Vec<(&'static str, f64)> {
+        let mut v = vec![
+            ("order", self.tab.order as f64),
+            ("stages", self.tab.stages() as f64),
+            ("internal_steps", self.steps as f64),
+            ("rhs_evaluations", self.evaluations as f64),
+        ];
+        if let Some((tol, _)) = &self.control {
+            v.push(("tolerance", *tol));
+            v.push(("rejected_steps", self.rejected as f64));
+            v.push(("error_estimate_max", self.error_norm_max * tol));
+            v.push(("local_error_max", self.local_error_max));
+            v.push(("step_min", self.step_min));
+            v.push(("step_max", self.step_max));
+        }
+        v
+    }
+
+    fn persist(&mut self, v: &mut dyn StateVisitor) -> bool {
+        // the sequence (state, the last step for dense output, the stage derivatives and
+        // which are valid), the controller, the reported state and the time bookkeeping;
+        // the tree's nodes are remade at every evaluation
+        persist::f64(v, "h", &mut self.h);
+        persist::f64(v, "h_next", &mut self.h_next);
+        persist::f64(v, "t", &mut self.t);
+        v.f64s("y", &mut self.y);
+        v.f64s("y_old", &mut self.y_old);
+        persist::f64(v, "h_last", &mut self.h_last);
+        for k in self.k.iter_mut() {
+            v.f64s("k", k);
+        }
+        persist::bool(v, "k0_valid", &mut self.k0_valid);
+        persist::bool(v, "fsal_pending", &mut self.fsal_pending);
+        if let Some((tol, c)) = &mut self.control {
+            persist::f64(v, "tolerance", tol);
+            c.persist(v);
+        }
+        persist::poses(v, "pose", &mut self.pose);
+        persist::twists(v, "vel", &mut self.vel);
+        persist::poses(v, "out_pose", &mut self.out_pose);
+        persist::twists(v, "out_vel", &mut self.out_vel);
+        persist::f64(v, "t0", &mut self.t0);
+        persist::f64(v, "t_out", &mut self.t_out);
+        persist::u64(v, "reported_steps", &mut self.reported_steps);
+        v.bools("active", &mut self.active);
+        persist::u64(v, "steps", &mut self.steps);
+        persist::u64(v, "rejected", &mut self.rejected);
+        persist::u64(v, "evaluations", &mut self.evaluations);
+        persist::f64(v, "error_norm_max", &mut self.error_norm_max);
+        persist::f64(v, "local_error_max", &mut self.local_error_max);
+        persist::f64(v, "step_min", &mut self.step_min);
+        persist::f64(v, "step_max", &mut self.step_max);
+        true
+    }
+}
+
+#[cfg(test)]
+mod tests;
