@@ -34,6 +34,8 @@ pub fn theoretical_order(name: &str) -> Option<f64> {
         | "coordinate_partitioning"
         | "implicit_trapezoid"
         | "natural_partitioning" => Some(2.0),
+        // quadratic time elements by Galerkin (notes F §1.10): O(h³) between the nodes
+        "state_time" => Some(3.0),
         _ => None,
     }
 }
