@@ -352,7 +352,8 @@ fn error_lines(stderr: &str) -> Vec<&str> {
 fn check_refuses_what_run_refuses_before_its_first_step() {
     let dir = scratch("check-refuses");
     let cantilever = std::fs::read_to_string(root().join("models/cantilever.mbd")).expect("model");
-    let pendulum = std::fs::read_to_string(root().join("models/pendulum.mbd")).expect("model");
+    let spatial =
+        std::fs::read_to_string(root().join("models/double_pendulum_3d.mbd")).expect("model");
     let chain = std::fs::read_to_string(root().join("models/chain.mbd")).expect("model");
     let cases = [
         (
@@ -368,10 +369,10 @@ fn check_refuses_what_run_refuses_before_its_first_step() {
             "implicit_trapezoid does not simulate flexible beams",
         ),
         (
-            "not_yet",
-            pendulum.replace("step 1 ms }", "step 1 ms; method state_time }"),
+            "not_planar",
+            spatial.replace("method staggered", "method state_time"),
             &[][..],
-            "method `state_time` is not available yet",
+            "state_time supports planar scenes only",
         ),
         (
             "dense",

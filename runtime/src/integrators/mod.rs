@@ -8,6 +8,7 @@
 //! | `staggered`, `baumgarte`, `penalty` | [`staggered`] | two-stage CINT with three constraint-force modules, notes A §1.4–1.9, C §3 |
 //! | `natural_partitioning` | [`natural`] | tree null space, Schur-complement PCG, cut joints by staggered stabilization, notes C §1 |
 //! | `rk4`, `dopri5` | [`runge_kutta`] | explicit Runge–Kutta on the tree coordinates, error control and dense output (Hairer–Nørsett–Wanner I §II) |
+//! | `state_time` | [`state_time`] | time elements, Newton on a window of the trajectory, notes F |
 //!
 //! Finite-element meshes ([`mesh_dynamics`]) are advanced beside them with the same step,
 //! and node sets tied to bodies couple the two in the staggered scheme ([`mesh_ties`]).
@@ -31,6 +32,7 @@ pub mod natural;
 pub mod partitioning;
 pub mod runge_kutta;
 pub mod staggered;
+pub mod state_time;
 #[cfg(test)]
 pub(crate) mod testsys;
 pub mod trapezoid;
@@ -184,6 +186,15 @@ pub fn make<'a, S: System + 'a>(
         }
     }
     let meshes = sys.layout().meshes.clone();
+    if let (M::StateTime { steps_per_element }, true) = (method, meshes.is_empty()) {
+        return Ok(Box::new(state_time::StateTime::new(
+            sys,
+            h,
+            *steps_per_element,
+            state_time::DEFAULT_WINDOW,
+            start,
+        )?));
+    }
     if meshes.is_empty() {
         return match rigid(method, sys, h, start)? {
             Some(r) => Ok(Box::new(r)),
@@ -196,7 +207,9 @@ pub fn make<'a, S: System + 'a>(
         return mesh_implicit::make(sys, h, start);
     }
     if matches!(method, M::StateTime { .. }) {
-        return Err(StartError::Unsupported(method.name()));
+        return Err(StartError::Invalid(
+            "state_time does not simulate finite-element meshes".into(),
+        ));
     }
     if let Some(why) = mesh_ties::refusal(&meshes, sys.layout(), method) {
         return Err(StartError::Invalid(why));

@@ -37,6 +37,8 @@ pub fn theoretical_order(name: &str) -> Option<f64> {
         | "natural_partitioning" => Some(2.0),
         // at a fixed step; dopri5 runs to its tolerance, the step is only its largest
         "rk4" => Some(4.0),
+        // quadratic time elements by Galerkin (notes F §1.10): O(h³) between the nodes
+        "state_time" => Some(3.0),
         _ => None,
     }
 }

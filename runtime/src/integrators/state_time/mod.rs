@@ -1,0 +1,394 @@
+//! The state-time method (notes F; Anderson & Oghbaei): time is a finite-element
+//! coordinate. A window of `W` time elements is solved at once: every unknown of the
+//! Newton–Euler equations (angle-like integral of ω, direction cosines, mass-centre
+//! positions, joint forces) is interpolated in time, the Galerkin residuals of Euler's and
+//! Newton's laws, Poisson's equation and the velocity-level joint constraints make one
+//! sparse, at most quadratic system, and Newton's method with the analytic Jacobian and a
+//! sparse LU solves it ([`window`]).
+//!
+//! **Scope of this version.** Planar rigid scenes with revolute and spherical joints and
+//! loads that do not depend on the state ([`planar`] says what is planar and refuses the
+//! rest, naming the body or joint). Quadratic Lagrange functions for the kinematic
+//! unknowns, linear ones for the joint forces (the paper's example, k = 2, p = 1).
+//!
+//! **Stepping.** The method serves the fixed output step `h` of the run: an element spans
+//! `steps_per_element` steps. When a step needs a time past the current window, the next
+//! window of `W` elements is solved from the state at the window's end (positions at the
+//! end node, the momentum-consistent end velocities, notes F §1.10); its initial guess is a
+//! staggered explicit sweep over the window on the same node grid (4 steps per node
+//! spacing). States inside an element come from the interpolants (velocities from their
+//! derivatives; at element ends the momentum-consistent velocities); the multipliers are
+//! the interpolated joint forces mapped onto the joints' point rows. A window may end
+//! after the run's end: the last window is solved whole.
+//!
+//! **Allocation.** Between window solves a step allocates nothing. A window solve
+//! allocates its unknowns, buffers and the sparse LU's symbolic analysis, and faer
+//! allocates the matrix values and the numeric factors at every Newton iteration.
+
+pub mod planar;
+pub mod shape;
+pub mod window;
+
+use crate::contract::math::{axis_angle, qmul};
+use crate::contract::scene::StaggeredOptions;
+use crate::contract::system::{ConstraintEval, Need, Pose, System, Wrench};
+use crate::integrators::{staggered, Integrator, StartError, State, StepError, StepInfo};
+use nalgebra::Vector3;
+use planar::Planar;
+use window::{BodyStart, Window};
+
+/// Time elements per window unless told otherwise.
+pub const DEFAULT_WINDOW: usize = 64;
+/// Newton's tolerance on the update, relative to the largest unknown (max norm).
+pub const NEWTON_TOLERANCE: f64 = 1e-11;
+/// Newton's iteration limit per window.
+pub const NEWTON_MAX_ITERATIONS: u32 = 30;
+/// Explicit steps per node spacing of the initial-guess sweep.
+const GUESS_SUBSTEPS: usize = 4;
+
+/// The state-time integrator of a planar scene.
+pub struct StateTime {
+    model: Planar,
+    h: f64,
+    spe: usize,
+    window_elements: usize,
+    /// Steps taken since the run's start, and the run's start time.
+    steps: u64,
+    t_start: f64,
+    /// Steps into the current window.
+    k: usize,
+    win: Option<Window>,
+    /// The window's start: body orientations and out-of-plane coordinates.
+    base: Vec<Pose>,
+    offplane: Vec<f64>,
+    cur: State,
+    ce: ConstraintEval,
+    stats: Stats,
+}
+
+#[derive(Clone, Copy, Debug, Default)]
+struct Stats {
+    windows: u32,
+    iterations: u32,
+    max_iterations: u32,
+    equations: usize,
+    cosine_drift: f64,
+    position_residual: f64,
+}
+
+impl StateTime {
+    /// The method with output step `h`, `steps_per_element` steps per time element and
+    /// windows of `window_elements` elements, from `start`.
+    ///
+    /// # Errors
+    /// A scene the method does not support (see [`planar::read`]), a zero element or
+    /// window size.
+    pub fn new<S: System>(
+        sys: &S,
+        h: f64,
+        steps_per_element: u32,
+        window_elements: usize,
+        start: &State,
+    ) -> Result<StateTime, StartError> {
+        if steps_per_element == 0 || window_elements == 0 {
+            return Err(StartError::Invalid(
+                "state_time: steps_per_element and the window's element count must be at least 1"
+                    .into(),
+            ));
+        }
+        let model = planar::read(sys, start).map_err(StartError::Invalid)?;
+        let rows = sys.layout().rows;
+        let mut cur = start.clone();
+        cur.lambda.resize(rows, 0.0);
+        cur.active = vec![true; rows];
+        Ok(StateTime {
+            base: start.pose.clone(),
+            offplane: start.pose.iter().map(|p| p.r.dot(&model.plane.n)).collect(),
+            model,
+            h,
+            spe: steps_per_element as usize,
+            window_elements,
+            steps: 0,
+            t_start: start.t,
+            k: 0,
+            win: None,
+            cur,
+            ce: ConstraintEval::new(rows),
+            stats: Stats::default(),
+        })
+    }
+
+    /// The current window (`None` before the first step).
+    pub fn window(&self) -> Option<&Window> {
+        self.win.as_ref()
+    }
+
+    /// Solve the next window from the current state. Returns Newton's iterations.
+    fn next_window<S: System>(&mut self, sys: &S) -> Result<u32, StepError> {
+        let plane = self.model.plane;
+        let nb = self.model.bodies.len();
+        let s = &self.cur;
+        let start: Vec<BodyStart> = (0..nb)
+            .map(|b| BodyStart {
+                x: plane.xy(&s.pose[b].r),
+                v: plane.xy(&s.twist[b].v),
+                w: (s.pose[b].c * s.twist[b].w).dot(&plane.n),
+            })
+            .collect();
+        let offsets: Vec<[[f64; 2]; 2]> = self
+            .model
+            .joints
+            .iter()
+            .map(|j| {
+                let off = |side: Option<usize>, p: &Vector3<f64>| match side {
+                    Some(b) => plane.xy(&(s.pose[b].c * p)),
+                    None => plane.xy(p),
+                };
+                [off(j.a, &j.pa), off(j.b, &j.pb)]
+            })
+            .collect();
+        self.base.clone_from(&s.pose);
+        for (d, p) in self.offplane.iter_mut().zip(&s.pose) {
+            *d = p.r.dot(&plane.n);
+        }
+        let w_el = self.window_elements;
+        let he = self.h * self.spe as f64;
+        let mut wrench = vec![Wrench::default(); nb];
+        let mut off_plane: Option<(usize, f64)> = None;
+        let (pose, twist) = (&s.pose, &s.twist);
+        let mut win = Window::new(&self.model, w_el, he, s.t, start, &offsets, |t, out| {
+            sys.applied(t, pose, twist, &mut wrench);
+            for (b, (o, w)) in out.iter_mut().zip(&wrench).enumerate() {
+                let tw = pose[b].c * w.t;
+                if w.f.dot(&plane.n).abs() > 1e-9 * (1.0 + w.f.norm())
+                    || tw.cross(&plane.n).norm() > 1e-9 * (1.0 + tw.norm())
+                {
+                    off_plane.get_or_insert((b, t));
+                }
+                *o = [w.f.dot(&plane.e1), w.f.dot(&plane.e2), tw.dot(&plane.n)];
+            }
+        });
+        if let Some((b, t)) = off_plane {
+            return Err(StepError::Linalg {
+                what: "state_time",
+                message: format!(
+                    "body '{}': an applied load leaves the plane of motion at t = {t:.6} s (a force along the normal or a torque about an in-plane axis); state_time supports planar scenes only in this version",
+                    self.model.bodies[b].name
+                ),
+            });
+        }
+        self.guess(sys, &mut win)?;
+        let t0 = win.t0;
+        let t1 = t0 + w_el as f64 * he;
+        let stats = win
+            .newton(NEWTON_TOLERANCE, NEWTON_MAX_ITERATIONS)
+            .map_err(|f| StepError::Linalg {
+                what: "state_time",
+                message: format!(
+                    "Newton's method on the window [{t0:.6}, {t1:.6}] s did not converge in {} iterations{}: largest residual {:.3e} in {}",
+                    f.iterations,
+                    f.linear.map_or(String::new(), |m| format!(" (sparse LU: {m})")),
+                    f.residual,
+                    f.place
+                ),
+            })?;
+        // orthogonality drift at the nodes
+        for e in 0..w_el {
+            for tau in [0.5, 1.0] {
+                for b in 0..nb {
+                    let (v, _) = win.body_at(e, tau, b);
+                    let d = (v[3] * v[3] + v[4] * v[4] - 1.0).abs();
+                    self.stats.cosine_drift = self.stats.cosine_drift.max(d);
+                }
+            }
+        }
+        self.stats.windows += 1;
+        self.stats.iterations += stats.iterations;
+        self.stats.max_iterations = self.stats.max_iterations.max(stats.iterations);
+        self.stats.equations = win.unknowns();
+        self.win = Some(win);
+        self.k = 0;
+        Ok(stats.iterations)
+    }
+
+    /// The initial guess of `win`: a staggered sweep from the current state on the window's
+    /// node grid.
+    fn guess<S: System>(&self, sys: &S, win: &mut Window) -> Result<(), StepError> {
+        let plane = self.model.plane;
+        let nb = self.model.bodies.len();
+        let nodes = 2 * win.elements;
+        let hs = win.h / (2 * GUESS_SUBSTEPS) as f64;
+        let mut sweep =
+            staggered::TwoStage::staggered(sys, hs, &StaggeredOptions::default(), &self.cur)
+                .map_err(|e| StepError::Linalg {
+                    what: "state_time initial guess",
+                    message: e.to_string(),
+                })?;
+        let mut st = self.cur.clone();
+        let mut ce = ConstraintEval::new(sys.layout().rows);
+        let mut theta = vec![0.0; nb];
+        let forces = |st: &State, ce: &mut ConstraintEval, win: &mut Window, n: usize| {
+            sys.constraints(st.t, &st.pose, &st.twist, Need::JAC, ce);
+            for (k, j) in self.model.joints.iter().enumerate() {
+                let f = joint_force(j, ce, &st.lambda);
+                win.set_force(n, k, plane.xy(&f));
+            }
+        };
+        forces(&st, &mut ce, win, 0);
+        for j in 1..=nodes {
+            for _ in 0..GUESS_SUBSTEPS {
+                Integrator::<S>::step(&mut sweep, sys)?;
+            }
+            Integrator::<S>::state(&sweep, sys, &mut st);
+            for b in 0..nb {
+                let r = st.pose[b].c * self.base[b].c.transpose();
+                let a = (plane.e2.dot(&(r * plane.e1))).atan2(plane.e1.dot(&(r * plane.e1)));
+                let d = a - theta[b];
+                let d = d - std::f64::consts::TAU * (d / std::f64::consts::TAU).round();
+                theta[b] += d;
+                let x = plane.xy(&st.pose[b].r);
+                win.set_kin(j, b, [theta[b], x[0], x[1], theta[b].cos(), theta[b].sin()]);
+            }
+            if j % 2 == 0 {
+                forces(&st, &mut ce, win, j / 2);
+            }
+        }
+        Ok(())
+    }
+
+    /// Fill `self.cur` with the state `k` steps into the current window.
+    fn fill_state<S: System>(&mut self, sys: &S) {
+        let Some(win) = &self.win else { return };
+        let plane = self.model.plane;
+        let (e, i) = (self.k / self.spe, self.k % self.spe);
+        let (e, tau) = if e >= win.elements {
+            (win.elements - 1, 1.0)
+        } else {
+            (e, i as f64 / self.spe as f64)
+        };
+        for b in 0..self.model.bodies.len() {
+            let (v, dv) = win.body_at(e, tau, b);
+            let vel = if tau == 1.0 {
+                win.end_velocity(e, b)
+            } else if i == 0 && e > 0 {
+                win.end_velocity(e - 1, b)
+            } else {
+                [dv[0], dv[1], dv[2]]
+            };
+            let q = qmul(&axis_angle(&plane.n, v[0]), &self.base[b].q);
+            let r = plane.e1 * v[1] + plane.e2 * v[2] + plane.n * self.offplane[b];
+            let pose = Pose::new(r, q);
+            self.cur.twist[b].v = plane.e1 * vel[1] + plane.e2 * vel[2];
+            self.cur.twist[b].w = pose.c.transpose() * (plane.n * vel[0]);
+            self.cur.pose[b] = pose;
+        }
+        self.cur.t = self.t_start + self.steps as f64 * self.h;
+        let s = &self.cur;
+        sys.constraints(
+            s.t,
+            &s.pose,
+            &s.twist,
+            Need {
+                phi: true,
+                jac: true,
+                gamma: false,
+            },
+            &mut self.ce,
+        );
+        let worst = self.ce.phi.iter().fold(0.0f64, |a, x| a.max(x.abs()));
+        self.stats.position_residual = self.stats.position_residual.max(worst);
+        for (k, j) in self.model.joints.iter().enumerate() {
+            let f2 = win.force_at(e, tau, k);
+            let f = plane.e1 * f2[0] + plane.e2 * f2[1];
+            set_multipliers(j, &self.ce, &f, &mut self.cur.lambda);
+        }
+    }
+}
+
+/// Joint `j`'s force on side b (world) from its rows' multipliers (`M u̇ + Bᵀλ = F`).
+fn joint_force(j: &planar::Joint, ce: &ConstraintEval, lambda: &[f64]) -> Vector3<f64> {
+    let mut f = Vector3::zeros();
+    for r in j.first_row..j.first_row + j.rows {
+        let (blk, sign) = if j.b.is_some() {
+            (&ce.jac[r].b, -1.0)
+        } else {
+            (&ce.jac[r].a, 1.0)
+        };
+        f += sign * Vector3::new(blk[0], blk[1], blk[2]) * lambda[r];
+    }
+    f
+}
+
+/// The multipliers of joint `j`'s rows that give the force `f` on side b: the
+/// least-norm solution over the rows' translational Jacobian blocks.
+fn set_multipliers(j: &planar::Joint, ce: &ConstraintEval, f: &Vector3<f64>, lambda: &mut [f64]) {
+    let rows = j.first_row..j.first_row + j.rows;
+    let (target, side_b) = if j.b.is_some() {
+        (-f, true)
+    } else {
+        (*f, false)
+    };
+    let col = |r: usize| {
+        let blk = if side_b { &ce.jac[r].b } else { &ce.jac[r].a };
+        Vector3::new(blk[0], blk[1], blk[2])
+    };
+    let mut g = nalgebra::Matrix3::zeros();
+    for r in rows.clone() {
+        let c = col(r);
+        g += c * c.transpose();
+    }
+    let y = g.try_inverse().map_or(Vector3::zeros(), |gi| gi * target);
+    for r in rows {
+        lambda[r] = col(r).dot(&y);
+    }
+}
+
+impl<S: System> Integrator<S> for StateTime {
+    fn name(&self) -> &'static str {
+        "state_time"
+    }
+    fn time(&self) -> f64 {
+        self.cur.t
+    }
+    fn step_size(&self) -> f64 {
+        self.h
+    }
+    fn step(&mut self, sys: &S) -> Result<StepInfo, StepError> {
+        let mut iterations = 0;
+        if self.win.is_none() || self.k >= self.window_elements * self.spe {
+            iterations = self.next_window(sys)?;
+        }
+        self.k += 1;
+        self.steps += 1;
+        self.fill_state(sys);
+        Ok(StepInfo { iterations })
+    }
+    fn state(&self, _sys: &S, out: &mut State) {
+        out.t = self.cur.t;
+        out.pose.clone_from(&self.cur.pose);
+        out.twist.clone_from(&self.cur.twist);
+        out.lambda.clone_from(&self.cur.lambda);
+        out.active.clone_from(&self.cur.active);
+        out.beams.clear();
+    }
+    fn active(&self) -> &[bool] {
+        &self.cur.active
+    }
+    fn stats(&self) -> Vec<(&'static str, f64)> {
+        let s = &self.stats;
+        vec![
+            ("windows", f64::from(s.windows)),
+            ("equations_per_window", s.equations as f64),
+            (
+                "newton_iterations_mean",
+                f64::from(s.iterations) / f64::from(s.windows.max(1)),
+            ),
+            ("newton_iterations_max", f64::from(s.max_iterations)),
+            ("max_cosine_drift", s.cosine_drift),
+            ("max_position_residual", s.position_residual),
+        ]
+    }
+}
+
+#[cfg(test)]
+mod tests;
