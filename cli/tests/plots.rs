@@ -223,6 +223,9 @@ fn beam_plots_are_drawn_from_the_exodus_file() {
         }
         svgs.push(std::fs::read(out.join("beam_blade.svg")).expect("beam_blade.svg"));
     }
-    assert!(svgs[0] == svgs[1], "the Exodus run's beam plot differs from the CSV run's");
+    assert!(
+        svgs[0] == svgs[1],
+        "the Exodus run's beam plot differs from the CSV run's"
+    );
     let _ = std::fs::remove_dir_all(&dir);
 }

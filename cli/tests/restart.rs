@@ -283,10 +283,7 @@ fn a_checkpoint_of_another_run_is_refused_naming_the_difference() {
         ),
         (&["--step", "0.0005"][..], "step 1e-3 s, not 5e-4 s"),
         (&["--set", "L=1.2 m"][..], "numbers differ"),
-        (
-            &["--format", "exodus"][..],
-            "output format vtk, not exodus",
-        ),
+        (&["--format", "exodus"][..], "output format vtk, not exodus"),
     ] {
         let args = [&base[..], extra, &["--restart"]].concat();
         let (ok, e) = run(DP, &out, &args);

@@ -48,7 +48,10 @@ fn data_files(dir: &std::path::Path) -> Vec<String> {
             let ext = name.rsplit('.').next().unwrap_or("").to_string();
             let folder = e.path().is_dir();
             match (folder, ext.as_str()) {
-                (true, _) => Some(format!("{name}/*.{}", if name == "mesh" { "vtu" } else { "vtp" })),
+                (true, _) => Some(format!(
+                    "{name}/*.{}",
+                    if name == "mesh" { "vtu" } else { "vtp" }
+                )),
                 (false, "csv" | "exo") => Some(name),
                 _ => None, // summary.json, scene.json, the manifest, the .pvd indexes
             }
