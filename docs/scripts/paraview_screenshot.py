@@ -1,6 +1,7 @@
 """A ParaView screenshot of a run's `results.exo`, for docs/output.md (not run by CI).
 
-    mbdc run models/plate_hole.mbd --format exodus -o out/plate_hole
+    apt-get install paraview python3-paraview xvfb          # Debian's ParaView 5.11
+    mbdc run models/plate_hole.mbd --interp --format exodus -o out/plate_hole
     xvfb-run -a pvbatch docs/scripts/paraview_screenshot.py out/plate_hole/results.exo \
         von_mises docs/images/paraview_plate_hole.png
 

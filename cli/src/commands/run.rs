@@ -366,7 +366,13 @@ pub fn simulate<S: System>(sys: &S, scene: &Scene, args: &Args) -> ExitCode {
     }
     let meta = RunMeta {
         model: scene.name.clone(),
-        method: cfg.method.name().into(),
+        // a scene of meshes alone under an implicit analysis reports that analysis, not
+        // the rigid method it does not use
+        method: if scene.simulate.mesh_method.is_implicit() {
+            scene.simulate.mesh_method.name().into()
+        } else {
+            cfg.method.name().into()
+        },
         step: cfg.step,
         duration: cfg.duration,
     };
