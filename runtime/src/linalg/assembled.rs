@@ -309,10 +309,11 @@ impl SymmetricAssembly {
             if uc == 0.0 {
                 continue;
             }
-            for p in self.c_ptr[ci]..self.c_ptr[ci + 1] {
-                let f = self.free_of[self.c_col[p] as usize];
+            let row = self.c_ptr[ci]..self.c_ptr[ci + 1];
+            for (&col, &k) in self.c_col[row.clone()].iter().zip(&k_c[row]) {
+                let f = self.free_of[col as usize];
                 if f != ELIMINATED {
-                    y[f as usize] -= k_c[p] * uc;
+                    y[f as usize] -= k * uc;
                 }
             }
         }

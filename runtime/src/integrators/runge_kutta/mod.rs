@@ -382,7 +382,9 @@ impl RungeKutta {
                 self.rejected += 1;
                 self.h_next = next;
                 let floor = 1e-14 * self.t.abs().max(self.h);
-                if !(next > floor) || attempts >= MAX_ATTEMPTS {
+                if next.partial_cmp(&floor) != Some(std::cmp::Ordering::Greater)
+                    || attempts >= MAX_ATTEMPTS
+                {
                     return Err(StepError::NoConvergence {
                         what: "the step-size control of dopri5 (the step shrank to round-off: the motion is too fast or not smooth for this tolerance)",
                         iterations: attempts.min(u32::MAX as u64) as u32,
