@@ -67,8 +67,9 @@ use tableau::Tableau;
 /// Numbers per body in the state vector: position, Euler parameters, velocity, ω.
 const PER_BODY: usize = 13;
 
-/// Most internal steps (accepted and rejected) within one call of `step`.
-const MAX_ATTEMPTS: u64 = 1_000_000;
+/// Most internal steps (accepted and rejected) within one call of `step` (one output step):
+/// beyond it the run stops with a report rather than crawl (a stiff contact, a kink).
+const MAX_ATTEMPTS: u64 = 10_000;
 
 /// An explicit Runge–Kutta method on the tree (see the module doc).
 pub struct RungeKutta {
@@ -361,6 +362,14 @@ impl RungeKutta {
         let eps = 1e-12 * self.h;
         let mut attempts: u64 = 0;
         loop {
+            if attempts >= MAX_ATTEMPTS {
+                return Err(StepError::NoConvergence {
+                    what: "the step-size control of dopri5 (more than 10 000 internal steps for one output step: the motion is too fast or not smooth for this tolerance)",
+                    iterations: attempts.min(u32::MAX as u64) as u32,
+                    residual: self.error_norm_max,
+                    row: None,
+                });
+            }
             let hs = self.h_next.min(self.h);
             self.attempt(sys, hs)?;
             let (tol, ctl) = self.control.as_mut().expect("controlled method");
@@ -382,9 +391,7 @@ impl RungeKutta {
                 self.rejected += 1;
                 self.h_next = next;
                 let floor = 1e-14 * self.t.abs().max(self.h);
-                if next.partial_cmp(&floor) != Some(std::cmp::Ordering::Greater)
-                    || attempts >= MAX_ATTEMPTS
-                {
+                if next.partial_cmp(&floor) != Some(std::cmp::Ordering::Greater) {
                     return Err(StepError::NoConvergence {
                         what: "the step-size control of dopri5 (the step shrank to round-off: the motion is too fast or not smooth for this tolerance)",
                         iterations: attempts.min(u32::MAX as u64) as u32,
