@@ -15,7 +15,7 @@ use crate::kernels::fn1::{ellipk, jacobi_sn};
 fn scene(bodies: Vec<Body>, joints: Vec<Joint>, gravity: Option<[f64; 3]>) -> Scene {
     Scene {
         name: "rk".into(),
-        gravity: gravity.map(Into::into),
+        gravity,
         bodies,
         joints,
         forces: Vec::new(),
@@ -76,10 +76,10 @@ fn top() -> Interp {
             [0.0, TOP_J[1], 0.0],
             [0.0, 0.0, TOP_J[2]],
         ],
-        position: [0.0; 3].into(),
+        position: [0.0; 3],
         orientation: quat_array(&Quaternion::identity()),
-        velocity: TOP_V0.into(),
-        angular_velocity: TOP_W0.into(),
+        velocity: TOP_V0,
+        angular_velocity: TOP_W0,
         origin: Origin::default(),
     };
     Interp::new(&scene(vec![b], Vec::new(), None)).unwrap()
@@ -137,10 +137,10 @@ fn free_body_energy_and_momentum_drift() {
         name: "brick".into(),
         mass: 1.0,
         inertia: [[1.0, 0.0, 0.0], [0.0, 2.0, 0.0], [0.0, 0.0, 3.0]],
-        position: [0.0; 3].into(),
+        position: [0.0; 3],
         orientation: quat_array(&Quaternion::identity()),
-        velocity: [0.0; 3].into(),
-        angular_velocity: [0.01, 2.0, 0.0].into(),
+        velocity: [0.0; 3],
+        angular_velocity: [0.01, 2.0, 0.0],
         origin: Origin::default(),
     };
     let sys = Interp::new(&scene(vec![b], Vec::new(), None)).unwrap();
@@ -182,10 +182,10 @@ fn pendulum() -> Interp {
         name: "rod".into(),
         mass: 1.0,
         inertia: [[jt, 0.0, 0.0], [0.0, jt, 0.0], [0.0, 0.0, R * R / 2.0]],
-        position: [-d * THETA0.sin(), 0.0, -d * THETA0.cos()].into(),
+        position: [-d * THETA0.sin(), 0.0, -d * THETA0.cos()],
         orientation: quat_array(q.quaternion()),
-        velocity: [0.0; 3].into(),
-        angular_velocity: [0.0; 3].into(),
+        velocity: [0.0; 3],
+        angular_velocity: [0.0; 3],
         origin: Origin::default(),
     };
     // the joint axis (frame z) along world y
@@ -198,12 +198,12 @@ fn pendulum() -> Interp {
         kind: JointKind::Revolute,
         a: Attachment {
             body: BodyRef::Ground,
-            point: [0.0; 3].into(),
+            point: [0.0; 3],
             frame: fy,
         },
         b: Attachment {
             body: BodyRef::Body(0),
-            point: [0.0, 0.0, d].into(),
+            point: [0.0, 0.0, d],
             frame: fy,
         },
         origin: Origin::default(),
