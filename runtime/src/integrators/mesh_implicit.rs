@@ -75,6 +75,17 @@ pub struct MeshImplicit {
     notice: Option<String>,
 }
 
+/// The mesh (its name) that holds flattened node `node`, and that mesh's first node.
+fn mesh_of_node(l: &MeshLayout, node: usize) -> (String, usize) {
+    let i = l
+        .blocks
+        .partition_point(|b| b.first_node <= node)
+        .saturating_sub(1);
+    l.blocks
+        .get(i)
+        .map_or((String::new(), 0), |b| (b.name.clone(), b.first_node))
+}
+
 /// The error of a failed factorization, in the user's terms: the node and component whose
 /// stiffness is missing.
 fn factor_error(
@@ -87,14 +98,7 @@ fn factor_error(
         LinalgError::NotPositiveDefinite { row, .. } | LinalgError::NonFinite { row } => {
             let g = k.assembly.free().get(row).copied().unwrap_or(0) as usize;
             let node = g / 3;
-            let i = l
-                .blocks
-                .partition_point(|b| b.first_node <= node)
-                .saturating_sub(1);
-            let (name, first) = l
-                .blocks
-                .get(i)
-                .map_or((String::new(), 0), |b| (b.name.clone(), b.first_node));
+            let (name, first) = mesh_of_node(l, node);
             let x = l.x0.get(node).copied().unwrap_or_default();
             (
                 name,
@@ -370,14 +374,7 @@ impl MeshImplicit {
         }
         if let Some(g) = self.u.iter().position(|x| !x.is_finite()) {
             let node = g / 3;
-            let i = l
-                .blocks
-                .partition_point(|b| b.first_node <= node)
-                .saturating_sub(1);
-            let (name, first) = l
-                .blocks
-                .get(i)
-                .map_or((String::new(), 0), |b| (b.name.clone(), b.first_node));
+            let (name, first) = mesh_of_node(l, node);
             return Err(StepError::Mesh {
                 mesh: name,
                 place: format!("node {}", node - first),
