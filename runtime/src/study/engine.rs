@@ -299,6 +299,7 @@ impl<'s> Study<'s> {
         let h_ref = h_min / f64::from(self.options.reference_refine);
         let (method, chosen) = numerical_reference::choose_method(
             self.options.reference_method.as_deref(),
+            self.options.measure,
             &self.methods,
             runs,
             h_min,
