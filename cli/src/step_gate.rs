@@ -71,7 +71,9 @@ fn judge_estimate(est: &step_limits::Estimate, method: &MethodSpec, h: f64) -> V
             h * fast.omega
         ));
     }
-    if let Some(motion) = est.fastest_motion().filter(|_| h > accurate) {
+    // dopri5's accuracy is its tolerance's, whatever its output interval
+    let own_steps = matches!(method, MethodSpec::DormandPrince { .. });
+    if let Some(motion) = est.fastest_motion().filter(|_| h > accurate && !own_steps) {
         return Verdict::Warn(format!(
             "the step {h:.3e} s gives {:.1} steps per period of the {} (ω = {:.4e} rad/s); accuracy needs at least 20 (h ≤ {accurate:.3e} s)",
             std::f64::consts::TAU / (motion.omega * h),
