@@ -16,7 +16,6 @@ mod child_signals;
 mod commands;
 mod plot;
 mod render;
-mod replace_file;
 mod scene_crate;
 mod step_gate;
 mod view;

@@ -1183,16 +1183,11 @@ fn check_scene(scene: &Scene, key: Option<(u64, u64)>, run: bool) -> Result<(), 
     }
     // the scene's step if the settings accept it, else 1 ms
     let h = cfg.as_ref().map_or(1e-3, |c| c.step);
-    // state_time is left out until its window solve stops faer's sparse LU from panicking
-    // on a singular or non-finite Newton matrix (a fuzzed case found it; issue 18)
     let mut methods: Vec<MethodSpec> = MethodSpec::NAMES
         .iter()
-        .filter(|n| **n != "state_time")
         .filter_map(|n| MethodSpec::default_for(n))
         .collect();
-    if scene.simulate.method.name() != "state_time" {
-        methods.push(scene.simulate.method.clone());
-    }
+    methods.push(scene.simulate.method.clone());
     for method in methods {
         let cfg = RunConfig {
             duration: 3.0 * h,

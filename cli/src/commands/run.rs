@@ -364,18 +364,7 @@ pub fn simulate<S: System>(sys: &S, scene: &Scene, args: &Args) -> ExitCode {
             return ExitCode::FAILURE;
         }
     }
-    let meta = RunMeta {
-        model: scene.name.clone(),
-        // a scene of meshes alone under an implicit analysis reports that analysis, not
-        // the rigid method it does not use
-        method: if scene.simulate.mesh_method.is_implicit() {
-            scene.simulate.mesh_method.name().into()
-        } else {
-            cfg.method.name().into()
-        },
-        step: cfg.step,
-        duration: cfg.duration,
-    };
+    let meta = RunMeta::new(scene, &cfg);
     note_unfinished(&dir, args.quiet);
     if let Err(e) = mbdc_runtime::output::write_scene(&dir, scene) {
         eprintln!("error: writing the output folder {}: {e}", dir.display());

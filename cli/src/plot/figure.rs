@@ -359,13 +359,10 @@ impl Figure {
     /// Render and write to `path`.
     ///
     /// # Errors
-    /// [`PlotError::Io`] with the path, or a drawing error.
+    /// [`PlotError::Write`] naming the file, or a drawing error.
     pub fn save(&self, path: &Path) -> Result<(), PlotError> {
         let svg = self.render()?;
-        crate::replace_file::replace_file(path, svg.as_bytes()).map_err(|source| PlotError::Io {
-            path: path.to_path_buf(),
-            source,
-        })
+        mbdc_runtime::output::replace_file(path, svg.as_bytes()).map_err(PlotError::Write)
     }
 }
 

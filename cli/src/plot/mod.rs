@@ -23,13 +23,15 @@ pub mod run_plots;
 /// Why a plot could not be drawn.
 #[derive(Debug)]
 pub enum PlotError {
-    /// A file could not be read or written.
+    /// A file could not be read.
     Io {
         /// The file.
         path: std::path::PathBuf,
         /// What went wrong.
         source: std::io::Error,
     },
+    /// The plot could not be written (the error names the file).
+    Write(mbdc_runtime::output::OutputError),
     /// A CSV file is malformed.
     Csv {
         /// The file.
@@ -49,6 +51,7 @@ impl std::fmt::Display for PlotError {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
             PlotError::Io { path, source } => write!(f, "{}: {source}", path.display()),
+            PlotError::Write(e) => write!(f, "{e}"),
             PlotError::Csv { path, message } => write!(f, "{}: {message}", path.display()),
             PlotError::Exodus(m) | PlotError::Request(m) => f.write_str(m),
             PlotError::Draw(m) => write!(f, "drawing the plot: {m}"),

@@ -257,8 +257,8 @@ pub fn write_view(dir: &Path, opts: ViewOptions) -> Result<ViewWritten, ViewErro
     };
     let html = page::render(&data, &block.values)?;
     let path = dir.join("view.html");
-    crate::replace_file::replace_file(&path, html.as_bytes())
-        .map_err(|e| ViewError(format!("{}: cannot write: {e}", path.display())))?;
+    mbdc_runtime::output::replace_file(&path, html.as_bytes())
+        .map_err(|e| ViewError(e.to_string()))?;
     notes.extend(info.notes);
     Ok(ViewWritten {
         path,

@@ -418,12 +418,7 @@ pub fn run_with<M: CompiledModel>(args: &Args) -> ExitCode {
         }
         Err(e) => return fail(e),
     }
-    let meta = RunMeta {
-        model: scene.name.clone(),
-        method: cfg.method.name().into(),
-        step: cfg.step,
-        duration: cfg.duration,
-    };
+    let meta = RunMeta::new(&scene, &cfg);
     let signals = match StopSignals::install() {
         Ok(s) => Some(s),
         Err(e) => {

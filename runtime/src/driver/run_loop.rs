@@ -101,6 +101,27 @@ impl Watchdog {
     }
 }
 
+// `RunMeta` lives with the output writers, which must not know the run loop; what a run of a
+// scene under a configuration is belongs here.
+impl crate::driver::output::RunMeta {
+    /// What a run of `scene` under `cfg` is. A scene whose meshes use an implicit
+    /// `mesh_method` reports that analysis, not the rigid method it does not use; the
+    /// command line and the compiled scene program both name the method this way.
+    pub fn new(scene: &crate::contract::scene::Scene, cfg: &RunConfig) -> Self {
+        let method = if scene.simulate.mesh_method.is_implicit() {
+            scene.simulate.mesh_method.name().into()
+        } else {
+            cfg.method.name().into()
+        };
+        Self {
+            model: scene.name.clone(),
+            method,
+            step: cfg.step,
+            duration: cfg.duration,
+        }
+    }
+}
+
 /// Settings of one run.
 #[derive(Clone, Debug, PartialEq)]
 pub struct RunConfig {
@@ -1481,6 +1502,7 @@ fn step_failure<S: System>(sys: &S, e: &StepError, t: f64, step: u64, h: f64) ->
         }
         StepError::Beam { beam, element, .. } => format!("beam '{beam}', element {element}"),
         StepError::Mesh { mesh, place, .. } => format!("mesh '{mesh}', {place}"),
+        StepError::Window { place, .. } => place.clone(),
         _ => "system".into(),
     };
     let (quantity, value, cause, hint) = match e {
@@ -1507,6 +1529,18 @@ fn step_failure<S: System>(sys: &S, e: &StepError, t: f64, step: u64, h: f64) ->
             f64::NAN,
             format!("{e}"),
             format!("the mesh deformed too far for its elements (an element turned inside out), or the run diverged: reduce the step (now {h:.3e} s), refine the mesh where it happened, or check the loads"),
+        ),
+        StepError::Window {
+            residual, singular, ..
+        } => (
+            "state_time residual".to_string(),
+            *residual,
+            format!("{e}"),
+            if *singular {
+                "the window's equations are singular there: a body with neither mass nor inertia about the plane's normal, or a joint that holds nothing; check the scene (mbdc check)".to_string()
+            } else {
+                format!("shorten the time elements (a smaller step, now {h:.3e} s, or fewer steps_per_element) so that each resolves the motion")
+            },
         ),
         StepError::NoConvergence {
             what,

@@ -562,6 +562,19 @@ pub enum StepError {
         /// What went wrong.
         message: String,
     },
+    /// A state-time window could not be solved: Newton's method did not converge, or its
+    /// matrix is singular.
+    #[error("{message}")]
+    Window {
+        /// The body or joint, equation or unknown, and time where it failed.
+        place: String,
+        /// The largest residual at the end.
+        residual: f64,
+        /// What happened, with the window's time span.
+        message: String,
+        /// Whether the window's equations are singular (not merely unconverged).
+        singular: bool,
+    },
     /// An iteration did not converge.
     #[error("{what} did not converge in {iterations} iterations (residual {residual:.3e})")]
     NoConvergence {

@@ -79,6 +79,7 @@ pub mod size_estimate;
 mod vtk;
 mod vtu;
 
+pub use replace_file::replace_file;
 pub use scene_file::{read_scene, write_scene, SCENE_FILE};
 pub use size_estimate::{estimate, OutputEstimate};
 

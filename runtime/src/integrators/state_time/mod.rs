@@ -66,6 +66,10 @@ pub struct StateTime {
     stats: Stats,
 }
 
+/// Above this drift of the direction cosines from orthonormal (`|c² + s² − 1|` at any
+/// node), a `state_time` run that finishes warns that its rotations are not resolved.
+pub const COSINE_DRIFT_WARNING: f64 = 5e-2;
+
 #[derive(Clone, Copy, Debug, Default)]
 struct Stats {
     windows: u32,
@@ -182,15 +186,22 @@ impl StateTime {
         let t1 = t0 + w_el as f64 * he;
         let stats = win
             .newton(NEWTON_TOLERANCE, NEWTON_MAX_ITERATIONS)
-            .map_err(|f| StepError::Linalg {
-                what: "state_time",
-                message: format!(
-                    "Newton's method on the window [{t0:.6}, {t1:.6}] s did not converge in {} iterations{}: largest residual {:.3e} in {}",
-                    f.iterations,
-                    f.linear.map_or(String::new(), |m| format!(" (sparse LU: {m})")),
-                    f.residual,
-                    f.place
-                ),
+            .map_err(|f| {
+                let singular = f.linear.is_some();
+                StepError::Window {
+                    message: match &f.linear {
+                        Some(why) => format!(
+                            "state_time: the window [{t0:.6}, {t1:.6}] s cannot be solved: {why}"
+                        ),
+                        None => format!(
+                            "state_time: Newton's method on the window [{t0:.6}, {t1:.6}] s did not converge in {} iterations: largest residual {:.3e} in {}",
+                            f.iterations, f.residual, f.place
+                        ),
+                    },
+                    place: f.place,
+                    residual: f.residual,
+                    singular,
+                }
             })?;
         // orthogonality drift at the nodes
         for e in 0..w_el {
@@ -373,6 +384,17 @@ impl<S: System> Integrator<S> for StateTime {
     }
     fn active(&self) -> &[bool] {
         &self.cur.active
+    }
+    /// The direction cosines are unknowns of their own (notes F §2.1): how far `c² + s²`
+    /// strays from 1 at the nodes measures how well the elements resolve the rotation, and
+    /// a run whose moment arms are off by more than [`COSINE_DRIFT_WARNING`] says so.
+    fn end_notice(&self) -> Option<String> {
+        let d = self.stats.cosine_drift;
+        (d > COSINE_DRIFT_WARNING).then(|| {
+            format!(
+                "state_time: the direction cosines drifted from orthonormal by {d:.1e} (c² + s² − 1, largest over the nodes); the time elements do not resolve the rotation to better than that, and the joint forces act on moment arms off by up to half of it: use shorter elements (a smaller step or fewer steps_per_element)"
+            )
+        })
     }
     fn stats(&self) -> Vec<(&'static str, f64)> {
         let s = &self.stats;

@@ -175,3 +175,31 @@ fn free_body_polynomial_motion_is_exact_at_the_nodes() {
         }
     }
 }
+
+/// A joint between ground and ground acts on no body: its force unknowns enter no
+/// equation and its constraint equations hold no unknown. The Newton matrix is singular,
+/// and the window reports it, naming the joint, where faer's numeric LU would panic on
+/// the zero pivot.
+#[test]
+fn a_singular_newton_matrix_is_a_reported_failure_not_a_panic() {
+    let (mut model, start, mut offsets) = double_pendulum();
+    model.joints.push(Joint {
+        name: "idle".into(),
+        a: None,
+        b: None,
+        pa: Vector3::zeros(),
+        pb: Vector3::zeros(),
+        first_row: 6,
+        rows: 3,
+    });
+    offsets.push([[0.0, 0.0], [0.0, 0.0]]);
+    let mut w = Window::new(&model, 4, 0.05, 0.0, start, &offsets, gravity([1.0, 0.5]));
+    let failure = w
+        .newton(1e-12, 20)
+        .expect_err("a singular window must fail");
+    let why = failure.linear.expect("the linear solve's reason");
+    assert!(
+        why.contains("singular") && why.contains("joint 'idle'"),
+        "{why}"
+    );
+}

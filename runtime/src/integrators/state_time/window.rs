@@ -30,7 +30,8 @@
 use super::planar::Planar;
 use super::shape::{dpsi, phi, psi, GAUSS6};
 use faer::dyn_stack::{MemBuffer, MemStack};
-use faer::sparse::linalg::lu::{factorize_symbolic_lu, NumericLu, SymbolicLu};
+use faer::sparse::linalg::lu::{factorize_symbolic_lu, LuSymbolicParams, NumericLu, SymbolicLu};
+use faer::sparse::linalg::SupernodalThreshold;
 use faer::sparse::{Argsort, Pair, SparseColMat, SymbolicSparseColMat};
 use faer::{Conj, MatMut, Par};
 
@@ -43,6 +44,10 @@ const C: usize = 3;
 const S: usize = 4;
 /// Gauss points per element.
 const NG: usize = GAUSS6.len();
+
+/// An update this small relative to the unknowns that no longer shrinks ends Newton's
+/// iteration as converged (the round-off floor; the discretization error is far larger).
+const STALL: f64 = 1e-8;
 
 /// Names of a body's equations, by field index (for failure reports).
 const BODY_EQUATIONS: [&str; FIELDS] = [
@@ -600,11 +605,17 @@ impl Window {
                 Ok(x) => x,
                 Err(e) => return Err(fail(self, &r, 0, Some(format!("{e:?}")))),
             };
-        let symbolic: SymbolicLu<usize> =
-            match factorize_symbolic_lu(sym.as_ref(), Default::default()) {
-                Ok(s) => s,
-                Err(e) => return Err(fail(self, &r, 0, Some(format!("{e:?}")))),
-            };
+        // The supernodal factorization pivots by dense partial pivoting within its panels
+        // and lets a zero pivot through as a non-finite solution (checked below); the
+        // simplicial one panics on it.
+        let params = LuSymbolicParams {
+            supernodal_flop_ratio_threshold: SupernodalThreshold::FORCE_SUPERNODAL,
+            ..Default::default()
+        };
+        let symbolic: SymbolicLu<usize> = match factorize_symbolic_lu(sym.as_ref(), params) {
+            Ok(s) => s,
+            Err(e) => return Err(fail(self, &r, 0, Some(format!("{e:?}")))),
+        };
         let par = Par::Seq;
         let req = symbolic
             .factorize_numeric_lu_scratch::<f64>(par, Default::default())
@@ -612,6 +623,7 @@ impl Window {
         let mut mem = MemBuffer::new(req);
         let mut numeric = NumericLu::<usize, f64>::new();
         let mut it = 0;
+        let mut du_prev = f64::INFINITY;
         loop {
             if r.iter().any(|x| !x.is_finite()) {
                 return Err(fail(self, &r, it, None));
@@ -623,6 +635,12 @@ impl Window {
                 Ok(m) => m,
                 Err(e) => return Err(fail(self, &r, it, Some(format!("{e:?}")))),
             };
+            // faer's numeric LU panics on an exact zero pivot: a Newton matrix with an
+            // empty row or column (a massless body, a joint that acts on nothing) is
+            // reported as a singular window instead, naming the equation or unknown
+            if let Some(why) = self.singular_line(mat.as_ref()) {
+                return Err(fail(self, &r, it, Some(why)));
+            }
             let lu = match symbolic.factorize_numeric_lu(
                 &mut numeric,
                 mat.as_ref(),
@@ -642,6 +660,13 @@ impl Window {
                 par,
                 MemStack::new(&mut mem),
             );
+            if r.iter().any(|x| !x.is_finite()) {
+                // the unknowns are left as they were: report the residual there
+                self.assemble(&mut r, &mut vals, None);
+                let why =
+                    "the Newton matrix is singular to working precision (its LU has a zero pivot)";
+                return Err(fail(self, &r, it, Some(why.into())));
+            }
             it += 1;
             let mut du = 0.0f64;
             let mut um = 1.0f64;
@@ -651,7 +676,12 @@ impl Window {
                 um = um.max(u.abs());
             }
             self.assemble(&mut r, &mut vals, None);
-            if du <= tol * um && r.iter().all(|x| x.is_finite()) {
+            // converged: the update is below the tolerance, or Newton has stalled at the
+            // round-off floor of an ill-scaled window (a body at rest: updates of 1e-10
+            // that no longer shrink) far below the solution's own error
+            let stalled = it >= 3 && du <= STALL * um && du > 0.25 * du_prev;
+            du_prev = du;
+            if (du <= tol * um || stalled) && r.iter().all(|x| x.is_finite()) {
                 return Ok(NewtonStats {
                     iterations: it,
                     residual: r.iter().fold(0.0, |a: f64, x| a.max(x.abs())),
@@ -660,36 +690,106 @@ impl Window {
         }
     }
 
+    /// Why the Newton matrix `mat` cannot be factorized without a zero pivot, when a
+    /// whole row or column of it is zero or one of its entries is not finite.
+    fn singular_line(&self, mat: faer::sparse::SparseColMatRef<'_, usize, f64>) -> Option<String> {
+        let n = mat.nrows();
+        let (col_ptr, row_idx, val) = (mat.col_ptr(), mat.row_idx(), mat.val());
+        let mut row_used = vec![false; n];
+        for j in 0..n {
+            let mut col_used = false;
+            for k in col_ptr[j]..col_ptr[j + 1] {
+                let v = val[k];
+                if !v.is_finite() {
+                    return Some(format!(
+                        "the Newton matrix has a non-finite entry ({v}) in {}",
+                        self.place_of_equation(row_idx[k])
+                    ));
+                }
+                if v != 0.0 {
+                    col_used = true;
+                    row_used[row_idx[k]] = true;
+                }
+            }
+            if !col_used {
+                return Some(format!(
+                    "the Newton matrix is singular: no equation depends on {}",
+                    self.place_of_unknown(j)
+                ));
+            }
+        }
+        let i = row_used.iter().position(|u| !u)?;
+        Some(format!(
+            "the Newton matrix is singular: {} depends on no unknown",
+            self.place_of_equation(i)
+        ))
+    }
+
+    /// The body or joint, field and time of unknown `i`.
+    fn place_of_unknown(&self, i: usize) -> String {
+        let fields = [
+            "unknown q",
+            "unknown x",
+            "unknown y",
+            "unknown c",
+            "unknown s",
+        ];
+        let nodes = 1..2 * self.elements + 1;
+        self.place(i, (&self.kin_off, nodes, fields), (&self.frc_off, "force"))
+    }
+
     /// The body or joint, equation and time of the largest entry of `r`.
     fn place_of_largest(&self, r: &[f64]) -> String {
-        let Some((i, _)) = crate::integrators::worst_entry(r) else {
-            return "no equations".into();
-        };
-        for j in 0..2 * self.elements {
-            let o = self.kin_row[j];
-            if i >= o && i < o + FIELDS * self.nb {
+        match crate::integrators::worst_entry(r) {
+            Some((i, _)) => self.place_of_equation(i),
+            None => "no equations".into(),
+        }
+    }
+
+    /// The body or joint, equation and time of equation `i`.
+    fn place_of_equation(&self, i: usize) -> String {
+        let nodes = 0..2 * self.elements;
+        self.place(
+            i,
+            (&self.kin_row, nodes, BODY_EQUATIONS),
+            (&self.frc_row, "velocity constraint"),
+        )
+    }
+
+    /// Which body or joint line `i` (an equation or an unknown) belongs to, and its time:
+    /// bodies' blocks of [`FIELDS`] lines start at `offsets[j]` for the nodes `j` of
+    /// `nodes` (named by `names`, at `t₀ + j·h/2`), joints' blocks of two at `joints[n]`
+    /// (at `t₀ + n·h`).
+    fn place(
+        &self,
+        i: usize,
+        (offsets, nodes, names): (&[usize], std::ops::Range<usize>, [&str; FIELDS]),
+        (joints, joint_line): (&[usize], &str),
+    ) -> String {
+        for j in nodes {
+            let o = offsets[j];
+            if (o..o + FIELDS * self.nb).contains(&i) {
                 let (b, f) = ((i - o) / FIELDS, (i - o) % FIELDS);
                 return format!(
                     "body '{}', {} at t = {:.6} s",
                     self.names.0[b],
-                    BODY_EQUATIONS[f],
+                    names[f],
                     self.t0 + j as f64 * self.h / 2.0
                 );
             }
         }
-        for n in 0..=self.elements {
-            let o = self.frc_row[n];
-            if i >= o && i < o + 2 * self.nj {
+        for (n, &o) in joints.iter().enumerate() {
+            if (o..o + 2 * self.nj).contains(&i) {
                 let (k, c) = ((i - o) / 2, (i - o) % 2);
                 return format!(
-                    "joint '{}', velocity constraint ({}) at t = {:.6} s",
+                    "joint '{}', {joint_line} ({}) at t = {:.6} s",
                     self.names.1[k],
                     ["x", "y"][c],
                     self.t0 + n as f64 * self.h
                 );
             }
         }
-        format!("equation {i}")
+        format!("line {i}")
     }
 }
 
