@@ -75,6 +75,9 @@ def timed(f, *args):
 
 
 def peer_series(scene, ref, run, method, h0):
+    """(step, CPU s per simulated s, error) of a peer's method, halving the step from h0.
+    A coarse start may blow up (a non-finite error): the series goes on halving until the
+    first finite error, and stops at a non-finite one after that."""
     pts = []
     h = h0
     while True:
@@ -83,7 +86,9 @@ def peer_series(scene, ref, run, method, h0):
         pts.append((h, cpu / scene.duration, err))
         print(f"    {method:>12} h={h:.3e}: {cpu / scene.duration:.3e} s/s, error {err:.3e}",
               flush=True)
-        if err < FLOOR or cpu > BUDGET_S or not math.isfinite(err) or h < 1e-6:
+        blown_up_after_finite = not math.isfinite(err) and any(
+            math.isfinite(p[2]) for p in pts)
+        if err < FLOOR or cpu > BUDGET_S or blown_up_after_finite or h < 1e-6:
             break
         h /= 2.0
     return pts
@@ -93,23 +98,44 @@ def _ms(cost):
     return f"{cost * 1e3:.3g}" if cost is not None else "—"
 
 
+def bounded(points, level):
+    """Whether a series' cheapest run is already at or below `level`: its cost there is only
+    an upper bound (a coarser run might have reached it too)."""
+    cheapest = min(points, key=lambda p: p[1], default=None)
+    return cheapest is not None and 0 < cheapest[2] <= level
+
+
 def write_tables(results, out):
     """Write `race.md` from the results so far and return its text: the best of mbdc
     against the best peer, mbdc's best against each peer code's best, and every code and
     method's cost at each level (ms of CPU per simulated s) with the smallest error it
-    reached."""
-    lines = ["Run: `race.py " + " ".join(sys.argv[1:]) + "`", "",
+    reached. `≤` marks a cost that is an upper bound (see `bounded`); a ratio is then
+    marked `≤` or `≥`, or `?` when both costs are bounds."""
+
+    def cost(r, name, level):
+        c = r["levels"][str(level)]["costs"][name]
+        if c is None:
+            return "—"
+        return ("≤" if bounded(r["series"][name], level) else "") + _ms(c)
+
+    def ratio(r, mine, theirs, level):
+        bm, bp = bounded(r["series"][mine[0]], level), bounded(r["series"][theirs[0]], level)
+        mark = "?" if bm and bp else "≤" if bm else "≥" if bp else ""
+        return f"{mark}{mine[1] / theirs[1]:.2f}"
+
+    runs = sorted({r.get("run", "") for r in results})
+    lines = ["Run: " + ", ".join(f"`race.py {a}`" for a in runs), "",
              "| scene | measure | level | mbdc best (ms per simulated s) | best peer | mbdc / peer | check (sweep error / independent) |",
              "|---|---|---|---|---|---|---|"]
     for r in results:
         for level in LEVELS:
             lv = r["levels"][str(level)]
             bm, bp = lv["mbdc_best"], lv["peer_best"]
-            fm = f"{bm[1] * 1e3:.3g} ({bm[0][5:]})" if bm else "—"
-            fp = f"{bp[1] * 1e3:.3g} ({bp[0]})" if bp else "—"
-            ratio = f"{bm[1] / bp[1]:.2f}" if bm and bp else "—"
+            fm = f"{cost(r, bm[0], level)} ({bm[0][5:]})" if bm else "—"
+            fp = f"{cost(r, bp[0], level)} ({bp[0]})" if bp else "—"
+            rat = ratio(r, bm, bp, level) if bm and bp else "—"
             c = r["check"]
-            lines.append(f"| {r['scene']} | {r['measure']} | {level:g} | {fm} | {fp} | {ratio} | "
+            lines.append(f"| {r['scene']} | {r['measure']} | {level:g} | {fm} | {fp} | {rat} | "
                          f"{c[2]:.2e} / {c[3]:.2e} |")
     codes = sorted({k.split()[0] for r in results for k in r["series"]} - {"mbdc"})
     lines += ["", "mbdc's best against each peer code's best (CPU time ratio; < 1: mbdc is faster):",
@@ -121,9 +147,9 @@ def write_tables(results, out):
             bm = r["levels"][str(level)]["mbdc_best"]
             cells = []
             for code in codes:
-                cc = [c for k, c in costs.items() if k.split()[0] == code and c is not None]
+                cc = [(k, c) for k, c in costs.items() if k.split()[0] == code and c is not None]
                 if bm and cc:
-                    cells.append(f"{bm[1] / min(cc):.2f}")
+                    cells.append(ratio(r, bm, min(cc, key=lambda x: x[1]), level))
                 else:
                     cells.append("—" if any(k.split()[0] == code for k in costs) else "n/a")
             lines.append(f"| {r['scene']} | {level:g} | " + " | ".join(cells) + " |")
@@ -133,7 +159,7 @@ def write_tables(results, out):
               "|---|---|" + "---|" * len(LEVELS) + "---|"]
     for r in results:
         for name, pts in r["series"].items():
-            cells = [_ms(r["levels"][str(lv)]["costs"][name]) for lv in LEVELS]
+            cells = [cost(r, name, lv) for lv in LEVELS]
             ok = [p for p in pts if p[2] > 0 and math.isfinite(p[2])]
             low = min(ok, key=lambda p: p[2]) if ok else None
             least = f"{low[2]:.2e} ({_ms(low[1])})" if low else "—"
@@ -156,6 +182,8 @@ def main():
                     help="mbdc sweep --reference-method (default: the sweep's choice)")
     ap.add_argument("--skip-methods", default="",
                     help="mbdc methods the sweep leaves out, comma-separated (default none)")
+    ap.add_argument("--tables-only", action="store_true",
+                    help="only rewrite race.md from the output folder's race.json")
     ap.add_argument("--tolerances", default="1e-3,1e-4,1e-5,1e-6,1e-7,1e-8,1e-9,1e-10,1e-11,1e-12",
                     help="dopri5's tolerance series, comma-separated ('' to leave it out)")
     a = ap.parse_args()
@@ -163,9 +191,12 @@ def main():
     target = Path(os.environ.get("CARGO_TARGET_DIR") or root / "target")
     mbdc = (Path(a.mbdc) if a.mbdc else target / "release" / "mbdc").resolve()
     out = (Path(a.out) if a.out else target / "race").resolve()
+    out.mkdir(parents=True, exist_ok=True)
+    if a.tables_only:
+        print(write_tables(json.loads((out / "race.json").read_text()), out))
+        return
     if not mbdc.is_file():
         sys.exit(f"no mbdc binary at {mbdc}: `cargo build --release -p mbdc`, or --mbdc / MBDC_BIN")
-    out.mkdir(parents=True, exist_ok=True)
     chosen = [s for s in a.scenes.split(",") if s]
     results = []
     for scene in scenes.all_scenes():
@@ -176,7 +207,9 @@ def main():
         ref, ref_err = reference.reference(scene)
         print(f"  reference's own error {ref_err:.1e} ({time.time() - t0:.0f} s)", flush=True)
         entries = {}
-        h0 = scene.duration / 500.0
+        # coarse enough that each series' cheapest run misses 1e-3 (else its cost there is
+        # only a bound, marked ≤)
+        h0 = scene.duration / 50.0
         for integ in peer_mujoco.INTEGRATORS:
             entries[f"MuJoCo {integ}"] = peer_series(scene, ref, peer_mujoco.run, integ, h0)
         if peer_exudyn.supports(scene):
@@ -205,7 +238,8 @@ def main():
         check = (best_m, best[0], best[2], reference.error(scene, poses, ref))
         print(f"  check: mbdc {best_m} h={best[0]:.3e}: sweep error {best[2]:.3e}, against the "
               f"independent reference {check[3]:.3e}", flush=True)
-        row = {"scene": scene.name, "duration_s": scene.duration, "measure": scene.measure,
+        row = {"scene": scene.name, "run": " ".join(sys.argv[1:]),
+               "duration_s": scene.duration, "measure": scene.measure,
                "reference_error": ref_err, "check": check, "series": entries, "levels": {}}
         for level in LEVELS:
             costs = {k: cost_at(v, level) for k, v in entries.items()}
