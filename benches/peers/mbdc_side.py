@@ -2,15 +2,30 @@
 default, best-of-k CPU time per run, error against the sweep's own reference), and one
 `mbdc run` whose final state is checked against the race's independent reference, so that
 the sweep's errors and the peers' errors measure the same thing.
+
+`dopri5` is error-controlled: a sweep's step is only its largest internal step and output
+interval, and its error follows its tolerance (the scene's, else 1e-9). Its work–precision
+series (`tolerance_series`) therefore varies the tolerance instead: per tolerance, a copy of
+the model whose `simulate` block asks for `method dopri5 { tolerance TOL }`, timed by a
+one-run `mbdc sweep` (same CPU accounting as every other mbdc run) at the sweep's largest
+default step (20 per shortest period: the largest internal step and the output interval; a
+larger one is refused by the explicit methods' stability check), its error measured like
+the peers' (an interpreted run against the independent reference).
 """
 
 import csv
 import json
 import math
+import re
 import subprocess
 from pathlib import Path
 
 import numpy as np
+
+# mbdc's methods, as `MethodSpec::NAMES` (runtime/src/contract/scene.rs) lists them: what a
+# sweep asked to leave some out (`skip`) runs instead of its default choice
+METHODS = ["staggered", "baumgarte", "penalty", "coordinate_partitioning", "implicit_trapezoid",
+           "natural_partitioning", "rk4", "dopri5", "state_time"]
 
 
 def _sets(scene):
@@ -20,13 +35,22 @@ def _sets(scene):
     return out
 
 
-def sweep(mbdc, root, scene, out, interp=False, levels=7, methods=None):
-    """Run `mbdc sweep` into `out`; returns its sweep.json."""
-    cmd = [str(mbdc), "sweep", str(root / scene.model), *_sets(scene),
+def sweep(mbdc, root, scene, out, interp=False, levels=7, methods=None, model=None, skip=(),
+          reference_method=None):
+    """Run `mbdc sweep` into `out` (on `model`, default the scene's) with `methods`, else
+    every method that applies, else (when `skip` names some) every method of `METHODS` but
+    those; its numerical reference by `reference_method` (default: the sweep's choice);
+    returns its sweep.json."""
+    if not methods and skip:
+        methods = [m for m in METHODS if m not in skip]
+    model = model or root / scene.model
+    cmd = [str(mbdc), "sweep", str(model), *_sets(scene),
            "--error", scene.measure, "--duration", repr(scene.duration),
            "--levels", str(levels), "-o", str(out), "-q"]
     if interp:
         cmd.append("--interp")
+    if reference_method:
+        cmd += ["--reference-method", reference_method]
     if methods:
         cmd += ["--methods", ",".join(methods)]
     subprocess.run(cmd, check=True, cwd=root)
@@ -38,17 +62,19 @@ def series(result, scene):
     key = "pos_err_final_m" if scene.measure == "pos-final" else "rot_err_final_rad"
     out = {}
     for run in result["runs"]:
-        if run.get("status") != "finished" or run.get(key) is None:
+        if run.get("status") != "ok" or run.get(key) is None:
             continue
         out.setdefault(run["method"], []).append(
             (run["step_s"], run["cpu_time_s"] / scene.duration, run[key]))
     return out
 
 
-def final_poses(mbdc, root, scene, method, h, out):
-    """The final mass-centre positions and orientations of one interpreted `mbdc run`."""
+def final_poses(mbdc, root, scene, method, h, out, model=None):
+    """The final mass-centre positions and orientations of one interpreted `mbdc run` (of
+    `model`, default the scene's)."""
+    model = model or root / scene.model
     steps = int(round(scene.duration / h))
-    cmd = [str(mbdc), "run", str(root / scene.model), *_sets(scene), "--interp", "-q",
+    cmd = [str(mbdc), "run", str(model), *_sets(scene), "--interp", "-q",
            "--method", method, "--step", repr(h), "--duration", repr(scene.duration),
            "--every", str(steps), "--format", "csv", "-o", str(out)]
     subprocess.run(cmd, check=True, cwd=root)
@@ -69,3 +95,41 @@ def final_poses(mbdc, root, scene, method, h, out):
         ])
         poses.append((p, rot))
     return poses
+
+
+def with_method(text, method):
+    """The model text with its `simulate { ... }` block's method replaced by `method` (e.g.
+    `dopri5 { tolerance 1e-6 }`); the race's models have the block on one line."""
+    m = re.search(r"simulate \{(.*)\}", text)
+    if not m:
+        raise ValueError("no one-line `simulate { ... }` block in the model")
+    body = re.sub(r"(;\s*)?method \w+(\s*\{[^}]*\})?", "", m.group(1))
+    return text[:m.start()] + f"simulate {{ method {method};{body}}}" + text[m.end():]
+
+
+def tolerance_series(mbdc, root, scene, out, ref, error, tolerances):
+    """`dopri5`'s (tolerance, CPU seconds per simulated second, error against `ref`) points:
+    see the module doc. `error(scene, poses, ref)` is the race's error measure."""
+    text = (root / scene.model).read_text()
+    pts = []
+    for tol in tolerances:
+        d = Path(out) / f"tol_{tol:.0e}"
+        d.mkdir(parents=True, exist_ok=True)
+        model = d / Path(scene.model).name
+        model.write_text(with_method(text, f"dopri5 {{ tolerance {tol:.0e} }}"))
+        try:
+            sw = sweep(mbdc, root, scene, d / "sweep", levels=1, methods=["dopri5"], model=model)
+            run = sw["runs"][0]
+            if run.get("status") != "ok":
+                print(f"    dopri5 tolerance {tol:.0e}: {run.get('status_text')}", flush=True)
+                continue
+            poses = final_poses(mbdc, root, scene, "dopri5", run["step_s"], d / "run",
+                                model=model)
+        except subprocess.CalledProcessError as e:
+            print(f"    dopri5 tolerance {tol:.0e}: mbdc failed ({e})", flush=True)
+            continue
+        err = error(scene, poses, ref)
+        pts.append((tol, run["cpu_time_s"] / scene.duration, err))
+        print(f"    dopri5 tolerance {tol:.0e} (h = {run['step_s']:.3e}): "
+              f"{run['cpu_time_s'] / scene.duration:.3e} s/s, error {err:.3e}", flush=True)
+    return pts

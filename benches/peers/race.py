@@ -4,19 +4,28 @@ side by side in one run.
 
     benches/peers/setup.sh                      # once: the venv with MuJoCo, Exudyn, Pinocchio
     cargo build --release -p mbdc
-    benches/peers/.venv/bin/python benches/peers/race.py [--scenes NAME,...] [--interp]
+    benches/peers/.venv/bin/python benches/peers/race.py [--scenes NAME,...] [--levels N]
+        [--skip-methods NAME,...] [--reference-method NAME] [--tolerances T,...] [--interp]
 
-Writes `target/race/race.md` (the table) and `race.json` (every point). For each code and
+The mbdc binary is `--mbdc`, else `$MBDC_BIN`, else `release/mbdc` of cargo's target folder
+(`$CARGO_TARGET_DIR` when set, else the repository's `target/`); the output folder is
+`--out`, else `race/` of that same target folder.
+
+Writes `<target>/race/race.md` (the table) and `race.json` (every point). For each code and
 method, the cost of an error level is read off its work–precision points by log–log
 interpolation between the two runs that bracket it (`—` when no run reached it). Errors:
 the peers' against the independent reference of `reference.py`; mbdc's are the sweep's
 against its own reference, and one mbdc run is also checked against the independent
-reference (the `check` column: both errors of that run, which must agree).
+reference (the `check` column: both errors of that run, which must agree). The sweep runs
+`dopri5` at one tolerance over its steps (`mbdc dopri5 (step series)`); its work–precision
+series proper varies the tolerance (`--tolerances`, `mbdc dopri5 (tolerance series)`, errors
+against the independent reference; see `mbdc_side.py`).
 """
 
 import argparse
 import json
 import math
+import os
 import sys
 import time
 from pathlib import Path
@@ -66,6 +75,9 @@ def timed(f, *args):
 
 
 def peer_series(scene, ref, run, method, h0):
+    """(step, CPU s per simulated s, error) of a peer's method, halving the step from h0.
+    A coarse start may blow up (a non-finite error): the series goes on halving until the
+    first finite error, and stops at a non-finite one after that."""
     pts = []
     h = h0
     while True:
@@ -74,23 +86,117 @@ def peer_series(scene, ref, run, method, h0):
         pts.append((h, cpu / scene.duration, err))
         print(f"    {method:>12} h={h:.3e}: {cpu / scene.duration:.3e} s/s, error {err:.3e}",
               flush=True)
-        if err < FLOOR or cpu > BUDGET_S or not math.isfinite(err) or h < 1e-6:
+        blown_up_after_finite = not math.isfinite(err) and any(
+            math.isfinite(p[2]) for p in pts)
+        if err < FLOOR or cpu > BUDGET_S or blown_up_after_finite or h < 1e-6:
             break
         h /= 2.0
     return pts
 
 
+def _ms(cost):
+    return f"{cost * 1e3:.3g}" if cost is not None else "—"
+
+
+def bounded(points, level):
+    """Whether a series' cheapest run is already at or below `level`: its cost there is only
+    an upper bound (a coarser run might have reached it too)."""
+    cheapest = min(points, key=lambda p: p[1], default=None)
+    return cheapest is not None and 0 < cheapest[2] <= level
+
+
+def write_tables(results, out):
+    """Write `race.md` from the results so far and return its text: the best of mbdc
+    against the best peer, mbdc's best against each peer code's best, and every code and
+    method's cost at each level (ms of CPU per simulated s) with the smallest error it
+    reached. `≤` marks a cost that is an upper bound (see `bounded`); a ratio is then
+    marked `≤` or `≥`, or `?` when both costs are bounds."""
+
+    def cost(r, name, level):
+        c = r["levels"][str(level)]["costs"][name]
+        if c is None:
+            return "—"
+        return ("≤" if bounded(r["series"][name], level) else "") + _ms(c)
+
+    def ratio(r, mine, theirs, level):
+        bm, bp = bounded(r["series"][mine[0]], level), bounded(r["series"][theirs[0]], level)
+        mark = "?" if bm and bp else "≤" if bm else "≥" if bp else ""
+        return f"{mark}{mine[1] / theirs[1]:.2f}"
+
+    runs = sorted({r.get("run", "") for r in results})
+    lines = ["Run: " + ", ".join(f"`race.py {a}`" for a in runs), "",
+             "| scene | measure | level | mbdc best (ms per simulated s) | best peer | mbdc / peer | check (sweep error / independent) |",
+             "|---|---|---|---|---|---|---|"]
+    for r in results:
+        for level in LEVELS:
+            lv = r["levels"][str(level)]
+            bm, bp = lv["mbdc_best"], lv["peer_best"]
+            fm = f"{cost(r, bm[0], level)} ({bm[0][5:]})" if bm else "—"
+            fp = f"{cost(r, bp[0], level)} ({bp[0]})" if bp else "—"
+            rat = ratio(r, bm, bp, level) if bm and bp else "—"
+            c = r["check"]
+            lines.append(f"| {r['scene']} | {r['measure']} | {level:g} | {fm} | {fp} | {rat} | "
+                         f"{c[2]:.2e} / {c[3]:.2e} |")
+    codes = sorted({k.split()[0] for r in results for k in r["series"]} - {"mbdc"})
+    lines += ["", "mbdc's best against each peer code's best (CPU time ratio; < 1: mbdc is faster):",
+              "", "| scene | level | " + " | ".join(f"mbdc / {c}" for c in codes) + " |",
+              "|---|---|" + "---|" * len(codes)]
+    for r in results:
+        for level in LEVELS:
+            costs = r["levels"][str(level)]["costs"]
+            bm = r["levels"][str(level)]["mbdc_best"]
+            cells = []
+            for code in codes:
+                cc = [(k, c) for k, c in costs.items() if k.split()[0] == code and c is not None]
+                if bm and cc:
+                    cells.append(ratio(r, bm, min(cc, key=lambda x: x[1]), level))
+                else:
+                    cells.append("—" if any(k.split()[0] == code for k in costs) else "n/a")
+            lines.append(f"| {r['scene']} | {level:g} | " + " | ".join(cells) + " |")
+    lines += ["", "Every code and method (ms of CPU per simulated s; `—`: not reached):", "",
+              "| scene | code and method | " + " | ".join(f"to {lv:g}" for lv in LEVELS)
+              + " | smallest error reached (its cost, ms/s) |",
+              "|---|---|" + "---|" * len(LEVELS) + "---|"]
+    for r in results:
+        for name, pts in r["series"].items():
+            cells = [cost(r, name, lv) for lv in LEVELS]
+            ok = [p for p in pts if p[2] > 0 and math.isfinite(p[2])]
+            low = min(ok, key=lambda p: p[2]) if ok else None
+            least = f"{low[2]:.2e} ({_ms(low[1])})" if low else "—"
+            lines.append(f"| {r['scene']} | {name} | " + " | ".join(cells) + f" | {least} |")
+    table = "\n".join(lines)
+    (out / "race.md").write_text(table + "\n")
+    return table
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--scenes", default="", help="comma-separated scene names (default all)")
-    ap.add_argument("--mbdc", default=None, help="the mbdc binary (default target/release/mbdc)")
-    ap.add_argument("--out", default=None, help="output folder (default target/race)")
+    ap.add_argument("--mbdc", default=os.environ.get("MBDC_BIN"),
+                    help="the mbdc binary (default $MBDC_BIN, else <target>/release/mbdc)")
+    ap.add_argument("--out", default=None, help="output folder (default <target>/race)")
     ap.add_argument("--interp", action="store_true", help="mbdc sweep --interp")
+    ap.add_argument("--levels", type=int, default=7,
+                    help="mbdc sweep --levels: halvings of the step from the sweep's largest (default 7)")
+    ap.add_argument("--reference-method", default=None,
+                    help="mbdc sweep --reference-method (default: the sweep's choice)")
+    ap.add_argument("--skip-methods", default="",
+                    help="mbdc methods the sweep leaves out, comma-separated (default none)")
+    ap.add_argument("--tables-only", action="store_true",
+                    help="only rewrite race.md from the output folder's race.json")
+    ap.add_argument("--tolerances", default="1e-3,1e-4,1e-5,1e-6,1e-7,1e-8,1e-9,1e-10,1e-11,1e-12",
+                    help="dopri5's tolerance series, comma-separated ('' to leave it out)")
     a = ap.parse_args()
     root = HERE.parent.parent
-    mbdc = Path(a.mbdc) if a.mbdc else root / "target" / "release" / "mbdc"
-    out = Path(a.out) if a.out else root / "target" / "race"
+    target = Path(os.environ.get("CARGO_TARGET_DIR") or root / "target")
+    mbdc = (Path(a.mbdc) if a.mbdc else target / "release" / "mbdc").resolve()
+    out = (Path(a.out) if a.out else target / "race").resolve()
     out.mkdir(parents=True, exist_ok=True)
+    if a.tables_only:
+        print(write_tables(json.loads((out / "race.json").read_text()), out))
+        return
+    if not mbdc.is_file():
+        sys.exit(f"no mbdc binary at {mbdc}: `cargo build --release -p mbdc`, or --mbdc / MBDC_BIN")
     chosen = [s for s in a.scenes.split(",") if s]
     results = []
     for scene in scenes.all_scenes():
@@ -101,17 +207,28 @@ def main():
         ref, ref_err = reference.reference(scene)
         print(f"  reference's own error {ref_err:.1e} ({time.time() - t0:.0f} s)", flush=True)
         entries = {}
-        h0 = scene.duration / 500.0
+        # coarse enough that each series' cheapest run misses 1e-3 (else its cost there is
+        # only a bound, marked ≤)
+        h0 = scene.duration / 50.0
         for integ in peer_mujoco.INTEGRATORS:
             entries[f"MuJoCo {integ}"] = peer_series(scene, ref, peer_mujoco.run, integ, h0)
         if peer_exudyn.supports(scene):
             for solver in peer_exudyn.SOLVERS:
                 entries[f"Exudyn {solver}"] = peer_series(scene, ref, peer_exudyn.run, solver, h0)
         print("  mbdc sweep", flush=True)
-        sw = mbdc_side.sweep(mbdc, root, scene, out / f"sweep_{scene.name}", a.interp)
+        skip = [m for m in a.skip_methods.split(",") if m]
+        sw = mbdc_side.sweep(mbdc, root, scene, out / f"sweep_{scene.name}", a.interp,
+                             levels=a.levels, skip=skip,
+                             reference_method=a.reference_method)
         mine = mbdc_side.series(sw, scene)
         for method, pts in mine.items():
-            entries[f"mbdc {method}"] = pts
+            # the sweep runs dopri5 at one tolerance (the scene's, else 1e-9) over its steps
+            entries[f"mbdc {method}" + (" (step series)" if method == "dopri5" else "")] = pts
+        tols = [float(t) for t in a.tolerances.split(",") if t]
+        if tols:
+            print("  mbdc dopri5, tolerance series", flush=True)
+            entries["mbdc dopri5 (tolerance series)"] = mbdc_side.tolerance_series(
+                mbdc, root, scene, out / f"dopri5_{scene.name}", ref, reference.error, tols)
         # the check: the finest run of mbdc's method with the smallest error, against the
         # independent reference
         best_m, best = min(((m, min(p, key=lambda x: x[2])) for m, p in mine.items()),
@@ -121,7 +238,8 @@ def main():
         check = (best_m, best[0], best[2], reference.error(scene, poses, ref))
         print(f"  check: mbdc {best_m} h={best[0]:.3e}: sweep error {best[2]:.3e}, against the "
               f"independent reference {check[3]:.3e}", flush=True)
-        row = {"scene": scene.name, "duration_s": scene.duration, "measure": scene.measure,
+        row = {"scene": scene.name, "run": " ".join(sys.argv[1:]),
+               "duration_s": scene.duration, "measure": scene.measure,
                "reference_error": ref_err, "check": check, "series": entries, "levels": {}}
         for level in LEVELS:
             costs = {k: cost_at(v, level) for k, v in entries.items()}
@@ -132,22 +250,8 @@ def main():
             row["levels"][str(level)] = {"costs": costs, "mbdc_best": bm, "peer_best": bp}
         results.append(row)
         (out / "race.json").write_text(json.dumps(results, indent=1))
-    lines = ["| scene | measure | level | mbdc best (ms per simulated s) | best peer | mbdc / peer | check (sweep error / independent) |",
-             "|---|---|---|---|---|---|---|"]
-    for r in results:
-        for level in LEVELS:
-            lv = r["levels"][str(level)]
-            bm, bp = lv["mbdc_best"], lv["peer_best"]
-            fm = f"{bm[1] * 1e3:.3g} ({bm[0][5:]})" if bm else "—"
-            fp = f"{bp[1] * 1e3:.3g} ({bp[0]})" if bp else "—"
-            ratio = f"{bm[1] / bp[1]:.2f}" if bm and bp else "—"
-            c = r["check"]
-            lines.append(f"| {r['scene']} | {r['measure']} | {level:g} | {fm} | {fp} | {ratio} | "
-                         f"{c[2]:.2e} / {c[3]:.2e} |")
-    table = "\n".join(lines)
-    (out / "race.md").write_text(table + "\n")
-    print(table)
-
+        write_tables(results, out)
+    print(write_tables(results, out))
 
 if __name__ == "__main__":
     main()
