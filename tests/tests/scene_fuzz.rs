@@ -1213,7 +1213,7 @@ fn describe(seed: &Seed, muts: &[Mutation]) -> String {
 // ---------------------------------------------------------------------------------------
 // The targets.
 
-/// Mutated model JSON: 20,000 cases, a few steps of every method on one accepted scene in
+/// Mutated model JSON: 20,000 cases, a few steps of every method on six accepted scenes in
 /// sixteen.
 #[test]
 fn mutated_scenes_never_panic() {
