@@ -583,7 +583,8 @@ impl Window {
     }
 
     /// Newton's method from the current unknowns: stops when the update is below `tol`
-    /// relative to the unknowns (max norm), at most `max_iterations` linear solves.
+    /// relative to the unknowns (max norm), or below [`STALL`] and no longer shrinking
+    /// (round-off), at most `max_iterations` linear solves.
     ///
     /// The pattern of the Jacobian, its column ordering and the LU's symbolic analysis
     /// are computed once per window; each iteration refactors numerically (faer allocates
@@ -624,6 +625,7 @@ impl Window {
         let mut numeric = NumericLu::<usize, f64>::new();
         let mut it = 0;
         let mut du_prev = f64::INFINITY;
+        let mut row_used = vec![false; n];
         loop {
             if r.iter().any(|x| !x.is_finite()) {
                 return Err(fail(self, &r, it, None));
@@ -635,10 +637,9 @@ impl Window {
                 Ok(m) => m,
                 Err(e) => return Err(fail(self, &r, it, Some(format!("{e:?}")))),
             };
-            // faer's numeric LU panics on an exact zero pivot: a Newton matrix with an
-            // empty row or column (a massless body, a joint that acts on nothing) is
-            // reported as a singular window instead, naming the equation or unknown
-            if let Some(why) = self.singular_line(mat.as_ref()) {
+            // an empty row or column (a massless body, a joint that acts on nothing) is
+            // reported naming its equation or unknown, which the LU's zero pivot cannot
+            if let Some(why) = self.singular_line(mat.as_ref(), &mut row_used) {
                 return Err(fail(self, &r, it, Some(why)));
             }
             let lu = match symbolic.factorize_numeric_lu(
@@ -677,7 +678,7 @@ impl Window {
             }
             self.assemble(&mut r, &mut vals, None);
             // converged: the update is below the tolerance, or Newton has stalled at the
-            // round-off floor of an ill-scaled window (a body at rest: updates of 1e-10
+            // round-off floor of an ill-scaled window (short elements: updates of 1e-10
             // that no longer shrink) far below the solution's own error
             let stalled = it >= 3 && du <= STALL * um && du > 0.25 * du_prev;
             du_prev = du;
@@ -691,11 +692,16 @@ impl Window {
     }
 
     /// Why the Newton matrix `mat` cannot be factorized without a zero pivot, when a
-    /// whole row or column of it is zero or one of its entries is not finite.
-    fn singular_line(&self, mat: faer::sparse::SparseColMatRef<'_, usize, f64>) -> Option<String> {
+    /// whole row or column of it is zero or one of its entries is not finite (`row_used`:
+    /// scratch of one flag per row).
+    fn singular_line(
+        &self,
+        mat: faer::sparse::SparseColMatRef<'_, usize, f64>,
+        row_used: &mut [bool],
+    ) -> Option<String> {
         let n = mat.nrows();
         let (col_ptr, row_idx, val) = (mat.col_ptr(), mat.row_idx(), mat.val());
-        let mut row_used = vec![false; n];
+        row_used.fill(false);
         for j in 0..n {
             let mut col_used = false;
             for k in col_ptr[j]..col_ptr[j + 1] {
