@@ -44,6 +44,7 @@ pub fn judge<S: System>(
     h: f64,
 ) -> (Verdict, Option<String>) {
     let (est, note) = step_limits::estimate_system(scene, sys);
+    let est = est.with_beam_substeps(step_limits::beam_substeps(method));
     (judge_estimate(&est, method, h), note)
 }
 
@@ -56,10 +57,11 @@ fn judge_estimate(est: &step_limits::Estimate, method: &MethodSpec, h: f64) -> V
     if fast.discretization && h > stable {
         // beams are explicit whatever the method
         return Verdict::Refuse(format!(
-            "the step {h:.3e} s is above the stability limit of the {} at ω = {:.4e} rad/s (h·ω = {:.2} > 2): beams are advanced explicitly\n  help: use a step of at most {stable:.3e} s, or raise the beam's `rotary_inertia_scale` (it lowers its shear/rotary-inertia mode; docs/methods.md, \"Beams\")",
+            "the step {h:.3e} s is above the stability limit of the {} at ω = {:.4e} rad/s (h·ω = {:.2} > 2): beams are advanced explicitly\n  help: use a step of at most {stable:.3e} s, advance the beams in substeps (`beam_substeps {}` or more in `method staggered {{ }}`: the rigid bodies keep the step), or raise the beam's `rotary_inertia_scale` (it lowers its shear/rotary-inertia mode; docs/methods.md, \"Beams\")",
             fast.what,
             fast.omega,
-            h * fast.omega
+            h * fast.omega,
+            (step_limits::beam_substeps(method) as f64 * h * fast.omega / 2.0).ceil()
         ));
     }
     if step_limits::is_explicit(method) && h > stable {

@@ -168,6 +168,9 @@ pub fn method_text(m: &MethodSpec) -> String {
             if o.factorization != mbdc_runtime::scene::Factorization::Auto {
                 v.push(format!("factorization {:?}", o.factorization).to_lowercase());
             }
+            if o.beam_substeps > 1 {
+                v.push(format!("beam_substeps {}", o.beam_substeps));
+            }
             v
         }
         MethodSpec::Baumgarte { alpha, beta } => {

@@ -183,6 +183,20 @@ fn beams_restart_bitwise() {
     ));
 }
 
+/// Subcycled beams (`beam_substeps`) restart bitwise too: the substeps' multipliers, the
+/// nodes' secant velocities and the velocities one substep back are persisted.
+#[test]
+fn subcycled_beams_restart_bitwise() {
+    let scene = load_model("arm_probe.mbd");
+    assert!(restart(
+        &scene,
+        &scene.simulate.method,
+        scene.simulate.step,
+        300,
+        117
+    ));
+}
+
 #[test]
 fn a_checkpoint_of_another_method_is_refused_by_name() {
     let scene = load_model("double_pendulum_3d.mbd");

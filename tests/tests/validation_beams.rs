@@ -765,3 +765,88 @@ model papers_example_4 {{
         dl / l0.norm()
     );
 }
+
+fn substeps(n: u32) -> MethodSpec {
+    MethodSpec::Staggered(StaggeredOptions {
+        beam_substeps: n,
+        ..Default::default()
+    })
+}
+
+/// Subcycling (issue 14): models/arm_probe.mbd, a three-link arm with a stiff steel probe
+/// clamped to its end, with the links at 80 µs and the probe in 16 substeps of 5 µs,
+/// against the whole scene at 5 µs, over 0.3 s (the arm falls through 25°).
+/// Reference: the uniform-step run (the method's own error there is 4e-10 m: 5 µs against
+/// 2.5 µs). Measured: every body within 4.3e-7 m (release build); tolerance 1e-6 m. The
+/// leapfrog's straight path for the link in the substeps (instead of the parabola) left
+/// the arm 4 cm off over 1 s; this test would fail by far.
+#[test]
+fn subcycled_beam_follows_the_uniform_step() {
+    let uniform = load_model_with("arm_probe.mbd", &["substeps=1"]);
+    let sub = load_model("arm_probe.mbd");
+    let a = simulate(&uniform, substeps(1), 5e-6, 0.3, 16);
+    let b = simulate(&sub, substeps(16), 8e-5, 0.3, 1);
+    assert!(a.report.finished, "{:?}", a.report.failure);
+    assert!(b.report.finished, "{:?}", b.report.failure);
+    assert_eq!(a.frames.len(), b.frames.len());
+    let mut worst: f64 = 0.0;
+    for (x, y) in a.frames.iter().zip(&b.frames) {
+        assert!((x.t - y.t).abs() < 1e-9, "{} against {}", x.t, y.t);
+        worst = worst.max(position_difference(x, y));
+    }
+    let fell = a.last().pose[2].r.z;
+    eprintln!(
+        "subcycled against uniform: {worst:.3e} m; the last link's centre fell to z = {fell:.3} m"
+    );
+    assert!(worst < 1e-6, "{worst:.3e} m");
+    assert!(fell < -0.3, "the arm did not swing: z = {fell}");
+    // the statistics say it was subcycled
+    assert_eq!(stat(&b, "beam_substeps"), 16.0);
+}
+
+/// What `beam_substeps` refuses before the first step, each naming the cause: an
+/// undamped beam (with the damping it needs), a scene without beams, a step above the
+/// coupling of the last link to the probe, and a substep above the beam's own limit.
+#[test]
+fn subcycling_refusals_name_their_cause() {
+    use mbdc_runtime::integrators::{self, State};
+    use mbdc_runtime::interp::Interp;
+    let refusal = |scene: &mbdc_runtime::scene::Scene, n: u32, h: f64| -> String {
+        let sys = Interp::new(scene).expect("interpretable");
+        match integrators::make(&substeps(n), &sys, h, &State::initial(&sys)) {
+            Ok(_) => String::new(),
+            Err(e) => e.to_string(),
+        }
+    };
+    let probe = load_model("arm_probe.mbd");
+    assert_eq!(refusal(&probe, 16, 8e-5), "", "the model itself starts");
+    let undamped = load_text(
+        &std::fs::read_to_string(model_path("arm_probe.mbd"))
+            .unwrap()
+            .replace("damping 1 us", ""),
+    );
+    let m = refusal(&undamped, 16, 8e-5);
+    assert!(
+        m.contains("beam 'probe'")
+            && m.contains("needs stiffness-proportional damping")
+            && m.contains("damping 7."),
+        "{m}"
+    );
+    let rigid = load_model("pendulum.mbd");
+    let m = refusal(&rigid, 4, 1e-3);
+    assert!(m.contains("needs a scene with flexible beams"), "{m}");
+    let m = refusal(&probe, 32, 1.6e-4);
+    assert!(
+        m.contains("joint 'probe.clamp[0]'")
+            && m.contains("body 'link[2]'")
+            && m.contains("coupling"),
+        "{m}"
+    );
+    let m = refusal(&probe, 8, 8e-5);
+    assert!(
+        m.contains("beam 'probe'")
+            && m.contains("the substep 1.000e-5 s")
+            && m.contains("`beam_substeps 13`"),
+        "{m}"
+    );
+}

@@ -43,6 +43,7 @@ pub(crate) fn method_options(name: &str) -> &'static [&'static str] {
             "gyroscopic",
             "factorization",
             "relaxation",
+            "beam_substeps",
         ],
         "baumgarte" => &["alpha", "beta"],
         "penalty" => &["epsilon"],
@@ -484,6 +485,9 @@ impl<'a> Lowerer<'a> {
                     "relaxation",
                     &[("none", Relaxation::None), ("kinetic", Relaxation::Kinetic)],
                 )?
+            }
+            (MethodSpec::Staggered(o), "beam_substeps") => {
+                o.beam_substeps = self.count(v, sc, "beam_substeps")?
             }
             (MethodSpec::Staggered(o), "factorization") => {
                 o.factorization = self.keyword(

@@ -85,6 +85,20 @@ impl Estimate {
         self.fastest().map_or(f64::INFINITY, |s| 2.0 / s.omega)
     }
 
+    /// The estimate for a run whose beams take `n` substeps per step (`beam_substeps`):
+    /// a beam's element mode limits the substep, so as a limit on the step it is `n` times
+    /// slower.
+    pub fn with_beam_substeps(mut self, n: u32) -> Estimate {
+        if n > 1 {
+            for s in self.sources.iter_mut().filter(|s| s.discretization) {
+                s.omega /= n as f64;
+                s.what = format!("{}, in {n} substeps per step", s.what);
+            }
+            self.sources.sort_by(|a, b| b.omega.total_cmp(&a.omega));
+        }
+        self
+    }
+
     /// The fastest source that is a motion of the scene (not a beam's discretization mode).
     pub fn fastest_motion(&self) -> Option<&Source> {
         self.sources.iter().find(|s| !s.discretization)
@@ -109,6 +123,14 @@ pub fn is_explicit(method: &crate::contract::scene::MethodSpec) -> bool {
             | crate::contract::scene::MethodSpec::StateTime { .. }
             | crate::contract::scene::MethodSpec::DormandPrince { .. }
     )
+}
+
+/// The beams' substeps per step of a method (`beam_substeps` of `staggered`; 1 otherwise).
+pub fn beam_substeps(method: &crate::contract::scene::MethodSpec) -> u32 {
+    match method {
+        crate::contract::scene::MethodSpec::Staggered(o) => o.beam_substeps.max(1),
+        _ => 1,
+    }
 }
 
 /// Whether a joint holds a body at a point it can swing about (the gravity source).
@@ -416,6 +438,101 @@ pub fn beam_step_limit(
     let w = beam_element_frequency(section, l, rotary_scale)?;
     let xi = 0.5 * damping * w;
     Some((w, (2.0 / w) * ((1.0 + xi * xi).sqrt() - xi)))
+}
+
+/// The frequency (rad/s) that limits a body's step when it carries a beam node and the
+/// beam is subcycled: the node's stiffness in its elements (`elements`: each adjacent
+/// element's two node poses at the start, unstrained there; `node` the attached node's
+/// pose) against the body's mobility at the node (`mass` and `pose` of the body), the
+/// node's mass left out (it only lowers the frequency). With `rotation` (a clamp) the
+/// node's six freedoms move with the body; else (a pin) its three translations.
+/// `√(2 λ_max(G K))`, G the body's mobility at the node and K the node's diagonal block of
+/// its elements' stiffness (central differences of the element's internal force); the
+/// factor 2 bounds the part of the elements' far nodes, as a row sum would. `None` for a
+/// section or element the kernel refuses.
+pub fn beam_coupling_frequency(
+    section: &crate::contract::scene::Section,
+    elements: &[(crate::contract::system::Pose, crate::contract::system::Pose)],
+    node: &crate::contract::system::Pose,
+    mass: &crate::contract::system::MassProps,
+    pose: &crate::contract::system::Pose,
+    rotation: bool,
+) -> Option<f64> {
+    use crate::contract::math::{axis_angle, qmul, skew};
+    use crate::contract::system::Twist;
+    use crate::kernels::beam_element::{
+        internal_force, BeamNode, BeamSection, ElementForce, ElementState,
+    };
+    use nalgebra::{Matrix3, Matrix6};
+    let sec = BeamSection::from_scene(section).ok()?;
+    let n = if rotation { 6 } else { 3 };
+    let mut k = Matrix6::<f64>::zeros();
+    for (p0, p1) in elements {
+        let reference = [
+            BeamNode {
+                pose: *p0,
+                twist: Twist::default(),
+            },
+            BeamNode {
+                pose: *p1,
+                twist: Twist::default(),
+            },
+        ];
+        // which end is the attached node
+        let i = if (p0.r - node.r).norm() <= (p1.r - node.r).norm() {
+            0
+        } else {
+            1
+        };
+        let l = (p1.r - p0.r).norm();
+        let state0 = ElementState::new(&reference).ok()?;
+        let force = |c: usize, d: f64| -> Option<[f64; 6]> {
+            let mut nodes = reference;
+            if c < 3 {
+                nodes[i].pose.r[c] += d;
+            } else {
+                let q = qmul(&nodes[i].pose.q, &axis_angle(&Vector3::ith(c - 3, 1.0), d));
+                nodes[i].pose.set_q(q);
+            }
+            let mut st = state0;
+            let mut out = ElementForce::default();
+            internal_force(&sec, &mut st, &nodes, &mut out).ok()?;
+            let w = out.wrench[i];
+            Some([w.f.x, w.f.y, w.f.z, w.t.x, w.t.y, w.t.z])
+        };
+        for c in 0..n {
+            let d = if c < 3 { 1e-6 * l } else { 1e-6 };
+            let (fp, fm) = (force(c, d)?, force(c, -d)?);
+            for r in 0..n {
+                k[(r, c)] -= (fp[r] - fm[r]) / (2.0 * d);
+            }
+        }
+    }
+    // the body's mobility at the node, in (world translation, node-axis rotation)
+    let d = node.r - pose.r;
+    let jw_inv = pose.c * mass.j_inv * pose.c.transpose();
+    let mut g = Matrix6::<f64>::zeros();
+    let sd = skew(&d);
+    g.fixed_view_mut::<3, 3>(0, 0)
+        .copy_from(&(Matrix3::identity() / mass.m + sd * jw_inv * sd.transpose()));
+    if rotation {
+        let cn = node.c.transpose();
+        g.fixed_view_mut::<3, 3>(0, 3)
+            .copy_from(&(-sd * jw_inv * cn.transpose()));
+        g.fixed_view_mut::<3, 3>(3, 0)
+            .copy_from(&(-cn * jw_inv * sd.transpose()));
+        g.fixed_view_mut::<3, 3>(3, 3)
+            .copy_from(&(cn * jw_inv * cn.transpose()));
+    }
+    let (g, k) = (
+        g.view((0, 0), (n, n)).clone_owned(),
+        k.view((0, 0), (n, n)).clone_owned(),
+    );
+    let k = (&k + k.transpose()) * 0.5;
+    let l = g.cholesky()?.l();
+    let a = l.transpose() * k * &l;
+    let lmax = ((&a + a.transpose()) * 0.5).symmetric_eigenvalues().max();
+    (lmax.is_finite() && lmax > 0.0).then(|| (2.0 * lmax).sqrt())
 }
 
 /// The highest natural frequency (rad/s) of one free beam element of length `l` with its

@@ -908,6 +908,18 @@ pub struct StaggeredOptions {
     /// Dynamic relaxation: march to a static equilibrium instead of following the motion.
     #[serde(default)]
     pub relaxation: Relaxation,
+    /// Substeps of the flexible beams' nodes per step of the rigid bodies (subcycling,
+    /// docs/methods.md "Beams: subcycling"); 1: every body takes the step.
+    #[serde(default = "one_substep", skip_serializing_if = "is_one_substep")]
+    pub beam_substeps: u32,
+}
+
+fn one_substep() -> u32 {
+    1
+}
+
+fn is_one_substep(n: &u32) -> bool {
+    *n == 1
 }
 
 /// Dynamic relaxation for static solutions (see docs/methods.md, "Beams").
@@ -974,6 +986,7 @@ impl Default for StaggeredOptions {
             gyroscopic: Gyroscopic::Midpoint,
             factorization: Factorization::Auto,
             relaxation: Relaxation::None,
+            beam_substeps: 1,
         }
     }
 }

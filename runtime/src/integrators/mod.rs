@@ -10,6 +10,8 @@
 //! | `rk4`, `dopri5` | [`runge_kutta`] | explicit Runge–Kutta on the tree coordinates, error control and dense output (Hairer–Nørsett–Wanner I §II) |
 //! | `state_time` | [`state_time`] | time elements, Newton on a window of the trajectory, notes F |
 //!
+//! Flexible beams are bodies of the system with element forces ([`beam_forces`]); with
+//! `beam_substeps` the staggered method advances their nodes in substeps ([`beam_subcycle`]).
 //! Finite-element meshes ([`mesh_dynamics`]) are advanced beside them with the same step,
 //! and node sets tied to bodies couple the two in the staggered scheme ([`mesh_ties`]).
 //! Scenes of meshes alone may instead use an implicit analysis ([`mesh_implicit`]: Newmark
@@ -22,6 +24,7 @@
 #![allow(clippy::needless_range_loop)]
 
 pub mod beam_forces;
+pub mod beam_subcycle;
 pub mod common;
 pub mod mesh_assembly;
 pub mod mesh_dynamics;
@@ -175,8 +178,20 @@ pub fn make<'a, S: System + 'a>(
                 method.name()
             )));
         }
-        if let Some(msg) = beam_step_limit(sys.layout(), start, h) {
+        let substeps = match method {
+            M::Staggered(o) => o.beam_substeps.max(1),
+            _ => 1,
+        };
+        if let Some(msg) = beam_step_limit(sys.layout(), start, h, substeps) {
             return Err(StartError::Invalid(msg));
+        }
+        if substeps > 1 {
+            if let Some(msg) = beam_subcycle_damping(sys.layout(), start, substeps) {
+                return Err(StartError::Invalid(msg));
+            }
+            if let Some(msg) = beam_coupling_limit(sys.layout(), start, h) {
+                return Err(StartError::Invalid(msg));
+            }
         }
         if two_sequences {
             return Err(StartError::Invalid(format!(
@@ -482,8 +497,10 @@ impl<S: System> Integrator<S> for WithMeshes {
 fn beam_step_limit(
     layout: &crate::contract::system::Layout,
     start: &State,
-    h: f64,
+    step: f64,
+    substeps: u32,
 ) -> Option<String> {
+    let h = step / substeps as f64;
     use crate::analysis::step_limits::beam_step_limit;
     for b in &layout.beams.beams {
         let node = |k: usize| start.pose.get(b.first_body + k).map(|p| p.r);
@@ -495,14 +512,111 @@ fn beam_step_limit(
         };
         let (w, limit) = beam_step_limit(&b.section, l, b.rotary_inertia_scale, b.damping)?;
         if h > limit {
+            let needed = (step / limit).ceil() as u64;
+            let what = if substeps > 1 {
+                format!("the substep {h:.3e} s (the step over `beam_substeps {substeps}`)")
+            } else {
+                format!("the step {h:.3e} s")
+            };
             return Some(format!(
-                "beam '{}', element {e}: the step {h:.3e} s is above the explicit limit {limit:.3e} s of the beam's highest mode ({w:.4e} rad/s{}); reduce the step, or raise the beam's `rotary_inertia_scale` (it lowers the shear/rotary-inertia mode; see docs/methods.md)",
+                "beam '{}', element {e}: {what} is above the explicit limit {limit:.3e} s of the beam's highest mode ({w:.4e} rad/s{}); reduce the step, advance the beams in substeps (`beam_substeps {needed}` or more in `method staggered {{ }}`: the rigid bodies keep the step), or raise the beam's `rotary_inertia_scale` (it lowers the shear/rotary-inertia mode; see docs/methods.md)",
                 b.name,
                 if b.damping > 0.0 { ", with its damping" } else { "" }
             ));
         }
     }
     None
+}
+
+/// The refusal of a subcycled beam without enough damping
+/// ([`beam_subcycle::MIN_DAMPING_RATIO`] at its highest element mode), naming the beam
+/// and the least `damping` it needs.
+fn beam_subcycle_damping(
+    layout: &crate::contract::system::Layout,
+    start: &State,
+    substeps: u32,
+) -> Option<String> {
+    use crate::analysis::step_limits::beam_element_frequency;
+    for b in &layout.beams.beams {
+        let node = |k: usize| start.pose.get(b.first_body + k).map(|p| p.r);
+        let l = (0..b.elements)
+            .filter_map(|e| Some((node(e + 1)? - node(e)?).norm()))
+            .fold(f64::INFINITY, f64::min);
+        let Some(w) = beam_element_frequency(&b.section, l, b.rotary_inertia_scale) else {
+            continue;
+        };
+        let least = 2.0 * beam_subcycle::MIN_DAMPING_RATIO / w;
+        if b.damping < least {
+            return Some(format!(
+                "beam '{}': `beam_substeps {substeps}` needs stiffness-proportional damping on the beam, `damping {least:.2e} s` or more (a damping ratio of {} at its highest element mode, {w:.4e} rad/s; it has {} s): without it the beam's highest modes grow, since the bodies take the beam's forces only once per step (docs/methods.md, \"Beams: subcycling\"). Its effect on a mode of frequency ω is a damping ratio βω/2",
+                b.name,
+                beam_subcycle::MIN_DAMPING_RATIO,
+                b.damping
+            ));
+        }
+    }
+    None
+}
+
+/// The refusal of a step above the limit of a body's coupling to the beam elements clamped
+/// or pinned to it, when the beams are subcycled ([`beam_subcycle`]): the body takes the
+/// whole step against the elements' forces, so each attached node's elements, with the
+/// body's mobility at the attachment in place of the node's mass, must have
+/// `h·ω ≤ 2` ([`crate::analysis::step_limits::beam_coupling_frequency`]).
+pub fn beam_coupling_limit(
+    layout: &crate::contract::system::Layout,
+    start: &State,
+    h: f64,
+) -> Option<String> {
+    use crate::analysis::step_limits::beam_coupling_frequency;
+    let beam_of = |body: usize| {
+        layout
+            .beams
+            .beams
+            .iter()
+            .find(|b| (b.first_body..=b.first_body + b.elements).contains(&body))
+    };
+    let mut worst: Option<(f64, String)> = None;
+    for j in &layout.joints {
+        let (node, body) = match (j.a, j.b) {
+            (Some(a), Some(b)) if beam_of(a).is_some() && beam_of(b).is_none() => (a, b),
+            (Some(a), Some(b)) if beam_of(b).is_some() && beam_of(a).is_none() => (b, a),
+            _ => continue,
+        };
+        let beam = beam_of(node)?;
+        let k = node - beam.first_body;
+        let p = |i: usize| start.pose[beam.first_body + i];
+        let elements: Vec<(Pose, Pose)> = [k.checked_sub(1), (k < beam.elements).then_some(k)]
+            .into_iter()
+            .flatten()
+            .map(|e| (p(e), p(e + 1)))
+            .collect();
+        let rotation = j.rows == 6;
+        let Some(w) = beam_coupling_frequency(
+            &beam.section,
+            &elements,
+            &start.pose[node],
+            &layout.mass[body],
+            &start.pose[body],
+            rotation,
+        ) else {
+            continue;
+        };
+        let limit = 2.0 / w;
+        if h > limit && worst.as_ref().is_none_or(|x| limit < x.0) {
+            worst = Some((
+                limit,
+                format!(
+                    "joint '{}': with `beam_substeps`, body '{}' takes the step {h:.3e} s against the forces of beam '{}' at its node {k}, and the step is above the limit {limit:.3e} s of that coupling (ω = {w:.4e} rad/s: the stiffness of the node's elements against the body's mass{}); reduce the step, or give the body more mass",
+                    j.name,
+                    layout.body_names[body],
+                    beam.name,
+                    if rotation { " and inertia" } else { "" },
+                ),
+            ));
+        }
+    }
+    worst.map(|w| w.1)
 }
 
 /// Why an integrator could not start.

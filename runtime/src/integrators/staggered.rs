@@ -85,6 +85,7 @@
 //! velocities `u̇⁰ − (h/2)u̇'⁰`, sequence A with positions at h/2 from a second-order Taylor step.
 
 use super::beam_forces::BeamForces;
+use super::beam_subcycle::Subcycle;
 use super::common::{self, accel, b_minv, b_times, bt_lambda, qbar, Index1};
 use super::{Integrator, StartError, State, StepError, StepInfo};
 use crate::contract::math::cayley_update;
@@ -172,6 +173,8 @@ pub struct TwoStage {
     min_pivot_ratio: f64,
     /// The flexible beams' internal forces (`None` without beams).
     beams: Option<BeamForces>,
+    /// The beams' substeps (`beam_substeps` > 1; `None` otherwise).
+    subcycle: Option<Subcycle>,
     /// Dynamic relaxation by kinetic damping.
     relax: bool,
     /// Kinetic energy of the previous step's velocities (relaxation).
@@ -327,7 +330,63 @@ impl TwoStage {
                     .into(),
             ));
         }
+        if opts.beam_substeps > 1 {
+            s.start_subcycle(sys, opts, start)?;
+        }
         Ok(s)
+    }
+
+    /// Set up `beam_substeps` (see [`super::beam_subcycle`]): refuse the options it does not
+    /// combine with, and start the beam nodes' half-step velocities at their own step.
+    fn start_subcycle<S: System>(
+        &mut self,
+        sys: &S,
+        opts: &StaggeredOptions,
+        start: &State,
+    ) -> Result<(), StartError> {
+        let n = opts.beam_substeps;
+        let refuse = |why: &str| Err(StartError::Invalid(format!("`beam_substeps {n}` {why}")));
+        if self.beams.is_none() {
+            return refuse("needs a scene with flexible beams: this one has none");
+        }
+        if !self.midpoint_gyro || !self.one_sequence {
+            return refuse("needs the default `gyroscopic midpoint` (one leapfrog sequence with the implicit midpoint kick)");
+        }
+        if opts.lint != LintForm::Exact {
+            return refuse("needs the default `lint exact`");
+        }
+        if self.relax {
+            return refuse("does not combine with `relaxation kinetic` (a static solution: give the beams' step to the whole scene)");
+        }
+        let mut sub = Subcycle::new(sys, n, &self.e, opts.epsilon.is_none(), self.tol)
+            .map_err(StartError::Invalid)?;
+        sub.start(&self.lambda, &self.seq[0].vel);
+        // the nodes' velocities half a substep back (the whole step's start went back h/2)
+        let layout = sys.layout();
+        let hs = self.h / n as f64;
+        for &i in sub.fast_bodies() {
+            let net = Wrench {
+                f: self.qbar[i].f - self.flam[i].f,
+                t: self.qbar[i].t - self.flam[i].t,
+            };
+            let a = accel(&layout.mass[i], &net);
+            self.seq[0].vel[i].v = start.twist[i].v - a.v * (hs / 2.0);
+            // the torque without the gyroscopic term, which the midpoint rule supplies
+            let tau = self.applied[i].t - self.flam[i].t;
+            self.seq[0].vel[i].w =
+                midpoint_kick(&layout.mass[i], &start.twist[i].w, &tau, -hs / 2.0);
+        }
+        self.subcycle = Some(sub);
+        Ok(())
+    }
+
+    /// The step of body `b`'s own coordinate update: the substep for a beam node when the
+    /// beams are subcycled, else the step.
+    fn own_step(&self, b: usize) -> f64 {
+        match &self.subcycle {
+            Some(sub) if sub.is_fast(b) => self.h / sub.substeps() as f64,
+            _ => self.h,
+        }
     }
 
     /// Baumgarte's stabilization on the same coordinate integrator.
@@ -567,6 +626,7 @@ impl TwoStage {
             max_iterations: 0,
             min_pivot_ratio: f64::INFINITY,
             beams,
+            subcycle: None,
             relax: false,
             ke_prev: 0.0,
             relax_resets: 0,
@@ -1221,6 +1281,9 @@ impl<S: System> Integrator<S> for TwoStage {
         if let Some(b) = &mut self.beams {
             b.persist(v);
         }
+        if let Some(sub) = &mut self.subcycle {
+            sub.persist(v);
+        }
         true
     }
 
@@ -1251,7 +1314,48 @@ impl<S: System> Integrator<S> for TwoStage {
             if self.relax {
                 self.relax_pose.copy_from_slice(&self.seq[0].pose);
             }
+            if let Some(sub) = &mut self.subcycle {
+                sub.begin(&self.seq[0].pose, &mut self.seq[0].vel);
+            }
             iterations += self.advance(sys, 0, 0)?;
+            if let (Some(sub), Some(beams)) = (&mut self.subcycle, &mut self.beams) {
+                // the beam nodes by their substeps, along the bodies' path of this step
+                let literal = self.paper_literal;
+                let kick = |m: &crate::contract::system::MassProps,
+                            q: &Wrench,
+                            f: &Wrench,
+                            p: &Pose,
+                            v: &Twist,
+                            h: f64| {
+                    cint_body(
+                        m,
+                        CintOpts {
+                            h,
+                            literal,
+                            midpoint_gyro: true,
+                        },
+                        q,
+                        f,
+                        p,
+                        v,
+                    )
+                };
+                let seq = &mut self.seq[0];
+                sub.run(
+                    sys,
+                    self.tau,
+                    self.h,
+                    &kick,
+                    beams,
+                    &self.lambda0,
+                    &self.active,
+                    &mut seq.pose,
+                    &mut seq.vel,
+                )?;
+                for (i, &b) in sub.fast_bodies().iter().enumerate() {
+                    self.vel_prev[b] = *sub.vel_before_last(i);
+                }
+            }
             self.half_steps += 2;
             self.tau = self.t0 + self.half_steps as f64 * self.h / 2.0;
         } else {
@@ -1286,8 +1390,9 @@ impl<S: System> Integrator<S> for TwoStage {
                 self.ke_prev = ke;
             }
         }
-        if let Some(b) = &mut self.beams {
+        if let (Some(b), None) = (&mut self.beams, &self.subcycle) {
             // the elements at the new positions; their forces act in the next kick
+            // (subcycled: the last substep evaluated them)
             let v = if self.one_sequence { 0 } else { 1 - self.x };
             b.update(&self.seq[self.x].pose, &self.seq[v].vel)?;
         }
@@ -1307,8 +1412,8 @@ impl<S: System> Integrator<S> for TwoStage {
             // last kick's torque, τ_ext = J(ω₁ − ω₀)/h + ω̄ × Jω̄. Second order too, and on a
             // torque-free body it conserves energy and |L| exactly, as the step does (plain
             // extrapolation overshoots a fast precession by up to ×1.7 near h·ω = 2).
-            let h = self.h;
             for i in 0..layout.bodies() {
+                let h = self.own_step(i);
                 if self.half_steps == 0 {
                     // before the first step `vel_prev` holds the initial velocity itself
                     out.twist[i] = self.vel_prev[i];
@@ -1379,6 +1484,9 @@ impl<S: System> Integrator<S> for TwoStage {
         }
         if let Some(b) = &self.beams {
             v.push(("beam_large_rotation_steps", b.large_rotation_steps() as f64));
+        }
+        if let Some(sub) = &self.subcycle {
+            v.extend(sub.stats());
         }
         v
     }

@@ -246,6 +246,46 @@ fn check_body_ref(
     }
 }
 
+/// A scene with beams: its own joints, forces and contacts name its own bodies and joints
+/// only. The expansion appends the beams' nodes as bodies and their attachments as joints,
+/// which the file cannot name; an index among them (a scene read from JSON) would pass the
+/// check of the expanded scene and break everything that reads the scene as it is.
+fn check_own_refs(scene: &Scene) -> Result<(), InterpError> {
+    use crate::contract::scene::ForceKind;
+    let (n, nj) = (scene.bodies.len(), scene.joints.len());
+    for j in &scene.joints {
+        check_body_ref("joint", &j.name, j.a.body, n)?;
+        check_body_ref("joint", &j.name, j.b.body, n)?;
+    }
+    for f in &scene.forces {
+        match &f.kind {
+            ForceKind::Point { at, .. } => {
+                check_body_ref("force", &f.name, at.body, n)?;
+            }
+            ForceKind::Torque { body, .. } => {
+                check_body_ref("force", &f.name, *body, n)?;
+            }
+            ForceKind::Spring { a, b, .. } => {
+                check_body_ref("force", &f.name, a.body, n)?;
+                check_body_ref("force", &f.name, b.body, n)?;
+            }
+            ForceKind::RotationalSpring { joint, .. } if *joint >= nj => {
+                return Err(invalid(
+                    "force",
+                    &f.name,
+                    format!("refers to joint index {joint}, but the scene has {nj} joints"),
+                ));
+            }
+            _ => {}
+        }
+    }
+    for c in &scene.contacts {
+        check_body_ref("contact", &c.name, c.a.0.body, n)?;
+        check_body_ref("contact", &c.name, c.b.0.body, n)?;
+    }
+    Ok(())
+}
+
 fn check_attachment(
     item: &'static str,
     name: &str,
@@ -373,6 +413,7 @@ impl Interp {
         if scene.beams.is_empty() {
             return Interp::build(scene, BeamLayout::default(), meshes);
         }
+        check_own_refs(scene)?;
         let ex = beam_model::expand(scene).map_err(|e| InterpError::Beam {
             name: e.beam,
             reason: e.reason,

@@ -129,7 +129,10 @@ pub fn choose(
         (None, None) => {
             // beams: their element modes limit stability, not accuracy; start just below it
             let beam = (scene.meshes.is_empty() && !scene.beams.is_empty())
-                .then(|| crate::analysis::step_limits::estimate(scene))
+                .then(|| {
+                    use crate::analysis::step_limits::{beam_substeps, estimate};
+                    estimate(scene).with_beam_substeps(beam_substeps(&scene.simulate.method))
+                })
                 .and_then(|e| e.sources.into_iter().find(|s| s.discretization));
             match beam {
                 Some(b) => (
