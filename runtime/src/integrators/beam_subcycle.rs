@@ -50,7 +50,7 @@ use crate::contract::system::{
     ConstraintEval, Layout, MassProps, Need, Pose, RowKind, System, Twist, Wrench,
 };
 use crate::integrators::beam_forces::BeamForces;
-use crate::integrators::common::accel;
+use crate::integrators::common::{accel, add6};
 use crate::integrators::StepError;
 use crate::kernels::joints::{self, JointOut};
 
@@ -64,8 +64,6 @@ const MAX_NEWTON: u32 = 25;
 /// A joint that touches a fast body.
 #[derive(Clone, Copy, Debug)]
 struct FastJoint {
-    /// Its index in the layout.
-    joint: usize,
     kernel: JointKernel,
     geom: JointGeom,
     a: Option<usize>,
@@ -174,7 +172,6 @@ impl Subcycle {
                 ));
             }
             joints.push(FastJoint {
-                joint: ji,
                 kernel,
                 geom: *geom,
                 a: j.a,
@@ -416,8 +413,8 @@ impl Subcycle {
     ) -> Result<(), StepError> {
         let layout = sys.layout();
         let n = self.n as f64;
-        // the slow bodies at t; the forces on the fast ones there
-        self.place_slow(end, k as f64 / n, h);
+        // the forces on the fast bodies at t (the working array holds the slow bodies at
+        // t: the start's positions from `begin`, then the last substep's placement)
         sys.applied(t, &self.pose, &self.vel, &mut self.applied);
         beams.add_to(&mut self.applied);
         Self::eval_joints(&self.joints, &self.pose, &self.vel, Need::ALL, &mut self.ce);
@@ -640,11 +637,6 @@ impl Subcycle {
             ("substep_newton_iterations_max", self.max_iterations as f64),
         ]
     }
-
-    /// The joints (layout indices) the substeps solve.
-    pub fn fast_joints(&self) -> impl Iterator<Item = usize> + '_ {
-        self.joints.iter().map(|j| j.joint)
-    }
 }
 
 /// The rotation vector of the Cayley update over `h` with the angular velocity `w`:
@@ -686,16 +678,6 @@ fn minv6(m: &MassProps, blk: &[f64; 6]) -> [f64; 6] {
         },
     );
     [a.v.x, a.v.y, a.v.z, a.w.x, a.w.y, a.w.z]
-}
-
-#[inline]
-fn add6(w: &mut Wrench, row: &[f64; 6], l: f64) {
-    w.f.x += row[0] * l;
-    w.f.y += row[1] * l;
-    w.f.z += row[2] * l;
-    w.t.x += row[3] * l;
-    w.t.y += row[4] * l;
-    w.t.z += row[5] * l;
 }
 
 #[cfg(test)]

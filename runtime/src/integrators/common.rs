@@ -97,8 +97,9 @@ fn dot6(row: &[f64; 6], t: &Twist) -> f64 {
         + row[5] * t.w.z
 }
 
+/// `w += l · row` for a Jacobian row block `[v (3), ω (3)]`.
 #[inline]
-fn add6(w: &mut Wrench, row: &[f64; 6], l: f64) {
+pub fn add6(w: &mut Wrench, row: &[f64; 6], l: f64) {
     w.f.x += row[0] * l;
     w.f.y += row[1] * l;
     w.f.z += row[2] * l;
