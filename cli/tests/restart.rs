@@ -355,3 +355,175 @@ fn bad_checkpoint_options_are_refused_before_the_run() {
         );
     }
 }
+
+/// The steps of the checkpoints in the output folder `out`, oldest first.
+fn checkpoint_steps(out: &Path) -> Vec<u64> {
+    mbdc_runtime::checkpoint::list(&out.join("checkpoints"))
+        .expect("the checkpoint folder reads")
+        .into_iter()
+        .map(|(step, _)| step)
+        .collect()
+}
+
+/// `simulate { output { checkpoint_every N; keep_checkpoints K } }` in the model writes
+/// checkpoints with no option given; `--checkpoint-every` and `--keep-checkpoints` override
+/// them; a restart after the model's cadence changed is accepted (the cadence is not part of
+/// what a checkpoint must match) and continues bitwise. Reference: the run made straight
+/// through; tolerance: none (byte equality).
+#[test]
+fn checkpoint_options_in_the_model_need_no_flags() {
+    let dir = scratch("restart-model-options");
+    let text = std::fs::read_to_string(root().join(DP)).unwrap();
+    let old = "simulate { duration 10 s; step 1 ms; method staggered }";
+    assert!(text.contains(old), "{DP} changed: update this test");
+    let with = |every: u32, keep: u32| {
+        text.replace(
+            old,
+            &format!(
+                "simulate {{ duration 10 s; step 1 ms; method staggered; output {{ every 10; checkpoint_every {every}; keep_checkpoints {keep} }} }}"
+            ),
+        )
+    };
+    let model = dir.join("dp.mbd");
+    let go = |out: &Path, extra: &[&str]| {
+        let mut args = vec!["run", "--interp", "-q", "-o", s(out)];
+        args.extend_from_slice(extra);
+        args.push(s(&model));
+        let o = mbdc(&args);
+        let e = String::from_utf8_lossy(&o.stderr).to_string();
+        assert!(o.status.success(), "{extra:?}: {e}");
+        e
+    };
+    std::fs::write(&model, with(300, 3)).unwrap();
+    // 2000 steps, a checkpoint every 300: steps 300 … 1800, the newest 3 kept
+    let straight = dir.join("straight");
+    go(&straight, &["--duration", "2"]);
+    assert_eq!(checkpoint_steps(&straight), [1200, 1500, 1800]);
+    // the command line overrides each option
+    let flags = dir.join("flags");
+    go(
+        &flags,
+        &[
+            "--duration",
+            "2",
+            "--checkpoint-every",
+            "700",
+            "--keep-checkpoints",
+            "1",
+        ],
+    );
+    assert_eq!(checkpoint_steps(&flags), [1400]);
+    // a run that stopped at 1.25 s, then the model's cadence changes, then the restart
+    let cut = dir.join("cut");
+    go(&cut, &["--duration", "1.25"]);
+    assert_eq!(checkpoint_steps(&cut), [600, 900, 1200]);
+    std::fs::write(&model, with(500, 1)).unwrap();
+    let e = go(&cut, &["--duration", "2", "--restart"]);
+    assert!(!e.contains("another run"), "{e}");
+    same_output(&straight, &cut);
+    assert_eq!(checkpoint_steps(&cut), [1700]);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A mesh run writing `results.exo` (format exodus), killed (SIGKILL) at several moments:
+/// the killed file opens and reads up to its last complete frame; the restart, with another
+/// number of threads than the killed run had, continues it to a `results.exo` equal byte for
+/// byte to the one the run made straight through (the element kernels are bitwise the same
+/// for any number of threads). Reference: the straight run's file; tolerance: none.
+#[test]
+fn an_exodus_run_killed_at_any_moment_restarts_bitwise_with_other_threads() {
+    use mbdc_runtime::output::exodus;
+    let dir = scratch("restart-killed-exodus");
+    let model = "models/plate.mbd";
+    // 2×10⁴ steps of the plate: long enough to be killed in the middle
+    let args = [
+        "--duration",
+        "0.02",
+        "--every",
+        "200",
+        "--format",
+        "exodus",
+        "--checkpoint-every",
+        "2000",
+    ];
+    let straight = dir.join("straight");
+    let (ok, e) = run(model, &straight, &args);
+    assert!(ok, "{e}");
+    let whole = std::fs::read(straight.join("results.exo")).unwrap();
+    let frames = exodus::read(&straight.join("results.exo"))
+        .expect("the straight file reads")
+        .frames();
+    assert_eq!(frames, 101);
+    let (mut mid_run, mut read_back, mut restarts) = (0, 0, 0);
+    for (i, ms) in [150u64, 500, 1000].into_iter().enumerate() {
+        let out = dir.join(format!("killed{i}"));
+        let mut child = command()
+            .args(["run", "--interp", "-q", "-o", s(&out)])
+            .args(args)
+            .arg(root().join(model))
+            .env("RAYON_NUM_THREADS", "2")
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .unwrap();
+        std::thread::sleep(std::time::Duration::from_millis(ms));
+        let _ = child.kill(); // SIGKILL
+        let _ = child.wait();
+        if summary(&out)["status"] != "started" {
+            continue; // it finished before the kill
+        }
+        mid_run += 1;
+        let path = out.join("results.exo");
+        if path.exists() {
+            // readable up to its last complete frame, and those frames are the straight run's
+            // (a kill while the header is being written leaves a file that is refused as
+            // such; the loop asserts below that some killed file was read)
+            if let Ok(f) = exodus::read(&path) {
+                read_back += usize::from(f.frames() > 0);
+                let n = f.frames();
+                assert!(n <= frames, "killed after {ms} ms: {n} frames");
+                let t = f.times().expect("times");
+                let tw = exodus::read(&straight.join("results.exo"))
+                    .unwrap()
+                    .times()
+                    .unwrap();
+                assert_eq!(t[..], tw[..t.len()], "killed after {ms} ms");
+            }
+        }
+        if checkpoint_steps(&out).is_empty() {
+            continue; // killed before its first checkpoint: nothing to continue
+        }
+        let mut again = args.to_vec();
+        again.push("--restart");
+        let o = command()
+            .args(["run", "--interp", "-q", "-o", s(&out)])
+            .args(again)
+            .arg(root().join(model))
+            .env("RAYON_NUM_THREADS", "1")
+            .output()
+            .unwrap();
+        let e = String::from_utf8_lossy(&o.stderr);
+        assert!(o.status.success(), "killed after {ms} ms: {e}");
+        let restarted = std::fs::read(out.join("results.exo")).unwrap();
+        assert_eq!(
+            restarted.len(),
+            whole.len(),
+            "killed after {ms} ms: lengths"
+        );
+        if let Some(at) = restarted.iter().zip(&whole).position(|(a, b)| a != b) {
+            panic!("killed after {ms} ms: results.exo differs at byte {at}");
+        }
+        same_output(&straight, &out);
+        restarts += 1;
+    }
+    assert!(
+        mid_run > 0,
+        "no run was killed before its end: lengthen the run"
+    );
+    assert!(read_back > 0, "no killed file had a frame to read");
+    assert!(
+        restarts > 0,
+        "no killed run had a checkpoint to restart from"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -134,6 +134,49 @@ fn output_format_and_partitions() {
 }
 
 #[test]
+fn checkpoint_options() {
+    use mbdc_runtime::scene::CheckpointOptions;
+    let body = "body b { mass 1 kg; inertia sphere(radius: 1 cm) }";
+    let with = |o: &str| {
+        model(body).replace(
+            "simulate { duration 1 s; step 1 ms }",
+            &format!("simulate {{ duration 1 s; step 1 ms; output {{ {o} }} }}"),
+        )
+    };
+    assert!(scene(&model(body)).simulate.output.checkpoint.is_none());
+    let c = scene(&with(
+        "checkpoint_every 500; checkpoint_seconds 10 min; keep_checkpoints 3",
+    ))
+    .simulate
+    .output
+    .checkpoint;
+    assert_eq!(
+        c,
+        CheckpointOptions {
+            every_steps: Some(500),
+            every_seconds: Some(600.0),
+            keep: Some(3),
+        }
+    );
+    for (bad, expected) in [
+        (
+            "checkpoint_every 0",
+            "`checkpoint_every` must be a positive integer, found 0",
+        ),
+        ("checkpoint_every 2.5", "checkpoint_every"),
+        ("checkpoint_seconds 5 m", "s"),
+        ("checkpoint_seconds 0 s", "checkpoint_seconds"),
+        (
+            "keep_checkpoints 0",
+            "`keep_checkpoints` must be a positive integer, found 0",
+        ),
+    ] {
+        let e = errors(&with(bad));
+        assert!(e.iter().any(|(_, m)| m.contains(expected)), "{bad}: {e:?}");
+    }
+}
+
+#[test]
 fn dimension_errors_name_the_units() {
     let e = errors(&model(
         "body b { mass 1 kg; inertia sphere(radius: 1 cm); position (1 m + 2 s, 0, 0) }",

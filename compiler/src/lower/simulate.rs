@@ -24,6 +24,9 @@ const OUTPUT_KEYS: &[Key] = &[
     one("every"),
     one("format"),
     one("partitions"),
+    one("checkpoint_every"),
+    one("checkpoint_seconds"),
+    one("keep_checkpoints"),
     Key {
         name: "include",
         min: 1,
@@ -594,6 +597,24 @@ impl<'a> Lowerer<'a> {
         if let Some(e) = props.value("partitions") {
             match self.count(e, sc, "`partitions`") {
                 Ok(n) => out.partitions = n,
+                Err(_) => ok = false,
+            }
+        }
+        if let Some(e) = props.value("checkpoint_every") {
+            match self.count(e, sc, "`checkpoint_every`") {
+                Ok(n) => out.checkpoint.every_steps = Some(u64::from(n)),
+                Err(_) => ok = false,
+            }
+        }
+        if let Some(e) = props.value("checkpoint_seconds") {
+            match self.positive(e, sc, Dim::TIME, "`checkpoint_seconds`") {
+                Ok(t) => out.checkpoint.every_seconds = Some(t),
+                Err(_) => ok = false,
+            }
+        }
+        if let Some(e) = props.value("keep_checkpoints") {
+            match self.count(e, sc, "`keep_checkpoints`") {
+                Ok(n) => out.checkpoint.keep = Some(n),
                 Err(_) => ok = false,
             }
         }

@@ -72,9 +72,10 @@ pub struct Settings {
     pub restart: bool,
 }
 
-/// Set up checkpoints and restart in `cfg` from the user's settings: where checkpoints go
-/// (`DIR/checkpoints`) and when, and, with `restart`, the newest checkpoint of `dir` to
-/// continue from. Returns notes for the user (a newer checkpoint refused as damaged, where
+/// Set up checkpoints and restart in `cfg` from the scene's `output { checkpoint_every …;
+/// checkpoint_seconds …; keep_checkpoints … }` and the user's settings, which override them
+/// one by one: where checkpoints go (`DIR/checkpoints`) and when, and, with `restart`, the
+/// newest checkpoint of `dir` to continue from. Returns notes for the user (a newer checkpoint refused as damaged, where
 /// the run continues from).
 ///
 /// # Errors
@@ -99,10 +100,20 @@ pub fn checkpoints<S: System>(
             ));
         }
     }
-    let keep = s.keep_checkpoints.unwrap_or(2);
-    if keep == 0 {
+    if s.keep_checkpoints == Some(0) {
         return Err("`--keep-checkpoints` must be at least 1".into());
     }
+    // The scene's `output { checkpoint_every …; checkpoint_seconds …; keep_checkpoints … }`
+    // (checked by the compiler), each overridden by its command-line option.
+    let own = scene.simulate.output.checkpoint;
+    let every_steps = s.checkpoint_every.or(own.every_steps.filter(|&n| n > 0));
+    let every_seconds = s
+        .checkpoint_seconds
+        .or(own.every_seconds.filter(|t| t.is_finite() && *t > 0.0));
+    let keep = s
+        .keep_checkpoints
+        .or(own.keep.filter(|&k| k > 0).map(|k| k as usize))
+        .unwrap_or(2);
     let identity = Identity::of(
         scene,
         sys.layout(),
@@ -136,11 +147,11 @@ pub fn checkpoints<S: System>(
             run: c.run,
         });
     }
-    if s.checkpoint_every.is_some() || s.checkpoint_seconds.is_some() {
+    if every_steps.is_some() || every_seconds.is_some() {
         cfg.checkpoint = Some(CheckpointSpec {
             dir: folder,
-            every_steps: s.checkpoint_every,
-            every_seconds: s.checkpoint_seconds,
+            every_steps,
+            every_seconds,
             keep,
             identity,
         });

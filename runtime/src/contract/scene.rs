@@ -832,6 +832,43 @@ pub struct OutputSpec {
     /// Partitions writing `results.exo` (0: chosen from the frame's size and the machine).
     #[serde(default)]
     pub partitions: u32,
+    /// When to write checkpoints (`checkpoint_every`, `checkpoint_seconds`,
+    /// `keep_checkpoints`); the command line's options override each one. Left out of the
+    /// restart identity's scene hash, so a run may change its cadence between restarts.
+    #[serde(default, skip_serializing_if = "CheckpointOptions::is_none")]
+    pub checkpoint: CheckpointOptions,
+}
+
+/// When a run writes checkpoints (`simulate { output { checkpoint_every N;
+/// checkpoint_seconds T; keep_checkpoints K } }`; `--checkpoint-every`,
+/// `--checkpoint-seconds`, `--keep-checkpoints` on the command line). No checkpoints unless
+/// one of the two intervals is given.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct CheckpointOptions {
+    /// A checkpoint at the first output frame at least this many steps after the last.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub every_steps: Option<u64>,
+    /// A checkpoint at the first output frame at least this many seconds of wall time after
+    /// the last.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub every_seconds: Option<f64>,
+    /// How many of the newest checkpoints to keep (default 2).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub keep: Option<u32>,
+}
+
+impl CheckpointOptions {
+    /// No checkpoint options given.
+    pub const NONE: CheckpointOptions = CheckpointOptions {
+        every_steps: None,
+        every_seconds: None,
+        keep: None,
+    };
+
+    /// Whether no option is given.
+    pub fn is_none(&self) -> bool {
+        *self == CheckpointOptions::NONE
+    }
 }
 
 /// The output format of a run (`simulate { output { format NAME } }`, `--format NAME`).
@@ -883,6 +920,7 @@ impl Default for OutputSpec {
             constraints: true,
             format: OutputFormat::Vtk,
             partitions: 0,
+            checkpoint: CheckpointOptions::NONE,
         }
     }
 }

@@ -53,7 +53,7 @@ pub struct Identity {
     pub bodies: usize,
     /// Constraint rows.
     pub rows: usize,
-    /// FNV-1a hash of the scene (its JSON, duration left out), hex.
+    /// FNV-1a hash of the scene (its JSON, duration and checkpoint options left out), hex.
     pub scene: String,
     /// The output format the run writes (`csv`, `vtk`, `exodus`): a run continues the
     /// files of its format, so a restart in another format is refused. Empty in
@@ -74,6 +74,8 @@ impl Identity {
     ) -> Identity {
         let mut s = scene.clone();
         s.simulate.duration = 0.0;
+        // When checkpoints are written is not what the run computes.
+        s.simulate.output.checkpoint = crate::contract::scene::CheckpointOptions::NONE;
         let json = serde_json::to_string(&s).unwrap_or_default();
         let mut hasher = crate::contract::fnv::Fnv::new();
         hasher.write(json.as_bytes());

@@ -1582,14 +1582,25 @@ struct ToWriter<'a> {
     first_element: Vec<bool>,
     /// The meshes' energies at the last frame (for the summary).
     mesh_energy: crate::integrators::MeshEnergy,
+    /// The time of the first frame for which the step waited for the writer.
+    first_wait: Option<f64>,
 }
+
+/// Said once, at the first frame for which the step had to wait for the output writer (a
+/// constant: a notice inside the run must not allocate).
+pub const WRITER_BEHIND: &str = "the output writer fell a whole buffer of frames behind: the run now waits for the disk at each frame (the summary says how long); a larger `--every` writes less";
 
 impl Observer for ToWriter<'_> {
     fn frame(&mut self, f: &Frame<'_>) {
         if self.error.is_some() {
             return;
         }
+        let waited = self.writer.waits().count;
         let mut out = self.writer.frame();
+        if waited == 0 && self.writer.waits().count > 0 {
+            self.first_wait = Some(f.state.t);
+            self.inner.notice(WRITER_BEHIND);
+        }
         out.step = f.step;
         out.t = f.state.t;
         out.poses.copy_from_slice(&f.state.pose);
@@ -1722,6 +1733,7 @@ pub fn run_to_dir<S: System>(
         error: None,
         first_element,
         mesh_energy: Default::default(),
+        first_wait: None,
     };
     let t0 = std::time::Instant::now();
     let report = run(sys, cfg, &mut obs);
@@ -1784,6 +1796,26 @@ pub fn run_to_dir<S: System>(
         summary
             .extra
             .insert("mesh_energy".into(), serde_json::Value::Object(terms));
+    }
+    // How long the step waited for the writer (0 when it never fell a buffer behind).
+    let waits = obs.writer.waits();
+    summary
+        .extra
+        .insert("output_waits".into(), waits.count.into());
+    if let Some(v) = serde_json::Number::from_f64(waits.seconds) {
+        summary
+            .extra
+            .insert("output_wait_seconds".into(), serde_json::Value::Number(v));
+    }
+    if let Some(t) = obs.first_wait {
+        let m = format!(
+            "the run waited {:.3} s for the output writer, at {} of its {} frames from t = {t:.6} s on ({:.1} % of its wall time)",
+            waits.seconds,
+            waits.count,
+            waits.frames,
+            100.0 * waits.seconds / summary.wall_time.max(1e-300),
+        );
+        obs.inner.notice(&m);
     }
     let ToWriter { writer, error, .. } = obs;
     let stopped = |e| crate::driver::output::OutputError::RunStopped {

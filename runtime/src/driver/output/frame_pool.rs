@@ -7,6 +7,7 @@
 //! whose capacity is the pool size never allocate.
 
 use std::sync::{Arc, Condvar, Mutex, MutexGuard};
+use std::time::{Duration, Instant};
 
 use super::Frame;
 
@@ -56,17 +57,20 @@ impl FramePool {
         )
     }
 
-    /// A frame, waiting while the pool is empty; `None` once the writer has ended with
-    /// the pool empty. Allocation-free.
-    pub(super) fn take(&self) -> Option<Frame> {
+    /// A frame, waiting while the pool is empty, with how long it waited (`None`: the
+    /// pool had one); `None` once the writer has ended with the pool empty.
+    /// Allocation-free (the clock is read only when it has to wait).
+    pub(super) fn take(&self) -> Option<(Frame, Option<Duration>)> {
         let mut shelf = self.shared.lock();
+        let mut since: Option<Instant> = None;
         loop {
             if let Some(f) = shelf.frames.pop() {
-                return Some(f);
+                return Some((f, since.map(|t| t.elapsed())));
             }
             if shelf.closed {
                 return None;
             }
+            since.get_or_insert_with(Instant::now);
             shelf = self
                 .shared
                 .returned

@@ -986,8 +986,22 @@ pub struct OutputWriter {
     error: Arc<Mutex<Option<OutputError>>>,
     handle: Option<JoinHandle<Stats>>,
     pool_size: usize,
+    /// How often and how long [`OutputWriter::frame`] waited for the writer.
+    waits: WriterWaits,
     #[cfg(test)]
     limits: Vec<(String, Arc<std::sync::atomic::AtomicU64>)>,
+}
+
+/// How often the simulation thread waited for a frame buffer because the writer had fallen a
+/// whole pool of frames behind, and for how long in all.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct WriterWaits {
+    /// Frames taken by [`OutputWriter::frame`].
+    pub frames: u64,
+    /// Frames for which [`OutputWriter::frame`] had to wait.
+    pub count: u64,
+    /// Wall time spent waiting, s.
+    pub seconds: f64,
 }
 
 impl std::fmt::Debug for OutputWriter {
@@ -1151,6 +1165,7 @@ impl OutputWriter {
             error,
             handle: Some(handle),
             pool_size,
+            waits: WriterWaits::default(),
             #[cfg(test)]
             limits,
         })
@@ -1182,12 +1197,25 @@ impl OutputWriter {
     /// [`OutputWriter::pool_size`] frames at once would therefore wait forever).
     /// Allocation-free, on any thread. If the writer thread has died, a fresh frame is
     /// allocated so the run can continue to its end and report (the next `submit`
-    /// returns the error).
+    /// returns the error). A wait is counted in [`OutputWriter::waits`].
     pub fn frame(&mut self) -> Frame {
         match self.pool.take() {
-            Some(f) => f,
+            Some((f, waited)) => {
+                self.waits.frames += 1;
+                if let Some(d) = waited {
+                    self.waits.count += 1;
+                    self.waits.seconds += d.as_secs_f64();
+                }
+                f
+            }
             None => Frame::new(&self.layout_for_fallback),
         }
+    }
+
+    /// How often and how long [`OutputWriter::frame`] has waited for the writer so far: the
+    /// step goes on without waiting unless the writer falls a whole pool of frames behind.
+    pub fn waits(&self) -> WriterWaits {
+        self.waits
     }
 
     /// Queue a filled frame for writing. Allocation-free.

@@ -56,6 +56,7 @@ const ALL: OutputSpec = OutputSpec {
     constraints: true,
     format: crate::contract::scene::OutputFormat::Vtk,
     partitions: 0,
+    checkpoint: crate::contract::scene::CheckpointOptions::NONE,
 };
 
 /// Awkward values: extremes, subnormals, signed zero, many digits.
@@ -602,4 +603,29 @@ fn exodus_resume_continues_the_file_bitwise() {
     };
     let e = OutputWriter::resume(restarted.path(), &other, &spec, meta(), &at).unwrap_err();
     assert!(e.to_string().contains("results.exo"), "{e}");
+}
+
+/// The frame pool says when the simulation thread had to wait for a frame: not while the
+/// pool holds one, and for about as long as the writer kept it otherwise. Reference: the
+/// writer's sleep of 30 ms; tolerance: the wait is at least 20 ms (the clock starts
+/// after the pool was found empty) and a frame that was there costs no wait.
+#[test]
+fn the_pool_reports_a_wait_for_the_writer() {
+    let l = layout();
+    let (pool, back) = frame_pool::FramePool::new(vec![Frame::new(&l), Frame::new(&l)]);
+    let (a, wa) = pool.take().expect("a frame");
+    let (b, wb) = pool.take().expect("a frame");
+    assert_eq!((wa, wb), (None, None), "the pool held both");
+    let writer = std::thread::spawn(move || {
+        std::thread::sleep(std::time::Duration::from_millis(30));
+        back.give(a);
+        back
+    });
+    let (_c, wc) = pool.take().expect("given back");
+    let waited = wc.expect("the pool was empty: a wait");
+    assert!(waited.as_secs_f64() >= 0.02, "{waited:?}");
+    let back = writer.join().unwrap();
+    back.give(b);
+    let (_d, wd) = pool.take().expect("given back");
+    assert_eq!(wd, None);
 }
