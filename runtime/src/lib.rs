@@ -77,8 +77,8 @@ pub mod linalg;
 pub mod study;
 
 pub use analysis::{
-    beam_model, constrained_modes, coordinates, effects, input_limits, mesh_model, mesh_stiffness,
-    step_limits, tie_model, topology,
+    beam_model, constrained_modes, coordinates, effects, input_limits, mesh_model, mesh_partition,
+    mesh_stiffness, step_limits, tie_model, topology,
 };
 pub use contract::{math, mesh_layout, mesh_plan, persist, scene, system};
 pub use driver::{assemble, checkpoint, energy, output, run_loop};

@@ -27,6 +27,11 @@ pub struct Args {
     /// Print the lowered scene as JSON (SI units) instead of the summary.
     #[arg(long)]
     pub json: bool,
+    /// Split every mesh into P parts (recursive coordinate bisection) and print the
+    /// partition metrics: elements, interface nodes, neighbouring parts, periphery,
+    /// incidence.
+    #[arg(long, value_name = "P", value_parser = clap::value_parser!(u32).range(1..))]
+    pub partition: Option<u32>,
 }
 
 fn parse_override(s: &str) -> Result<Override, String> {
@@ -94,6 +99,28 @@ pub fn run(args: Args) -> ExitCode {
             "{}",
             mbdc_runtime::coordinates::coordinates_report(scene, &topo)
         );
+    }
+    if let Some(p) = args.partition {
+        if scene.meshes.is_empty() {
+            eprintln!(
+                "error: `--partition` splits meshes, and {} has none",
+                args.file.display()
+            );
+            return ExitCode::FAILURE;
+        }
+        for mesh in &scene.meshes {
+            match mbdc_runtime::mesh_partition::bisect(mesh, p as usize) {
+                Ok(part) => print!(
+                    "{}",
+                    mbdc_runtime::mesh_partition::PartitionMetrics::of(mesh, &part)
+                        .render(&mesh.name)
+                ),
+                Err(e) => {
+                    eprintln!("error: {e}");
+                    return ExitCode::FAILURE;
+                }
+            }
+        }
     }
     if !loaded.diagnostics.is_empty() {
         eprintln!(

@@ -8,7 +8,9 @@
 //!   element blocks, lumped masses, conditions as node tables) and their critical step;
 //!   [`assembly_plan`]: the plans of the assembly strategies (colours, canonical order,
 //!   partitions); [`mesh_stiffness`]: their assembled linear stiffness with the fixed and
-//!   prescribed dofs eliminated, for the implicit analyses (Newmark, static).
+//!   prescribed dofs eliminated, for the implicit analyses (Newmark, static);
+//!   [`mesh_partition`]: a mesh split into subdomains (recursive coordinate bisection) and
+//!   the papers' partition metrics (`mbdc check --partition P`).
 //! - [`tie_model`]: node sets of meshes tied to bodies — the bodies with their tied nodes'
 //!   inertia (reference point at the joint mass centre), the tied nodes as constrained,
 //!   massless mesh nodes.
@@ -32,6 +34,7 @@ pub mod coordinates;
 pub mod effects;
 pub mod input_limits;
 pub mod mesh_model;
+pub mod mesh_partition;
 pub mod mesh_stiffness;
 pub mod step_limits;
 pub mod tie_model;
