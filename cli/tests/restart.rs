@@ -123,6 +123,15 @@ fn a_run_continued_from_its_checkpoint_is_the_run_made_straight_through() {
             "2000",
             &[][..],
         ),
+        // an implicit mesh analysis (Newmark)
+        (
+            "models/cantilever_newmark.mbd",
+            "0.025",
+            "0.0155",
+            "5",
+            "40",
+            &[][..],
+        ),
         // a mesh tied to a swinging body
         (
             "models/mesh_on_pendulum.mbd",

@@ -278,3 +278,33 @@ fn a_tied_mesh_restarts_bitwise_with_every_method_that_ties() {
     }
     assert!(tied.len() >= 4, "{tied:?}");
 }
+
+/// The implicit mesh analyses (`mesh_method newmark`, `static`) restart bitwise: Newmark
+/// with its displacement, velocity and acceleration, loads and energy accumulators; static
+/// with its load history and Clapeyron work. Reference: the run made straight through;
+/// tolerance: none (bit equality).
+#[test]
+fn implicit_mesh_analyses_restart_bitwise() {
+    for (model, n, k) in [
+        ("cantilever_newmark.mbd", 60, 23),
+        ("cantilever_static.mbd", 10, 4),
+    ] {
+        let mut scene = load_model(model);
+        // enough step times for a checkpoint in the middle
+        scene.simulate.duration = scene.simulate.step * n as f64;
+        assert!(
+            restart_checked(
+                &scene,
+                &method("staggered"),
+                scene.simulate.step,
+                n,
+                k,
+                |s| assert!(
+                    s.mesh.energy.external_work != 0.0,
+                    "{model}: loaded by then"
+                ),
+            ),
+            "{model}: the implicit analysis does not persist"
+        );
+    }
+}

@@ -1582,22 +1582,28 @@ struct ToWriter<'a> {
     first_element: Vec<bool>,
     /// The meshes' energies at the last frame (for the summary).
     mesh_energy: crate::integrators::MeshEnergy,
-    /// The time of the first frame for which the step waited for the writer.
+    /// The time of the frame at which the waits for the writer reached
+    /// [`WAIT_WORTH_SAYING`].
     first_wait: Option<f64>,
 }
 
-/// Said once, at the first frame for which the step had to wait for the output writer (a
-/// constant: a notice inside the run must not allocate).
-pub const WRITER_BEHIND: &str = "the output writer fell a whole buffer of frames behind: the run now waits for the disk at each frame (the summary says how long); a larger `--every` writes less";
+/// Said once, when the time the step has waited for the output writer (which had fallen a
+/// whole buffer of frames behind) reaches [`WAIT_WORTH_SAYING`] (a constant: a notice
+/// inside the run must not allocate).
+pub const WRITER_BEHIND: &str = "the output writer fell a whole buffer of frames behind and the run waits for it (the summary says how long): the disk or the format is slower than the run; a larger `--every` writes less";
+
+/// The time waited for the writer, s, from which the run says so: a method that hands
+/// over frames in bursts (state_time's windows) waits briefly at each burst, which costs
+/// nothing worth a word; `summary.json` counts every wait.
+pub const WAIT_WORTH_SAYING: f64 = 0.05;
 
 impl Observer for ToWriter<'_> {
     fn frame(&mut self, f: &Frame<'_>) {
         if self.error.is_some() {
             return;
         }
-        let waited = self.writer.waits().count;
         let mut out = self.writer.frame();
-        if waited == 0 && self.writer.waits().count > 0 {
+        if self.first_wait.is_none() && self.writer.waits().seconds >= WAIT_WORTH_SAYING {
             self.first_wait = Some(f.state.t);
             self.inner.notice(WRITER_BEHIND);
         }

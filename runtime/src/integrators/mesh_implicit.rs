@@ -520,6 +520,56 @@ impl<S: System> Integrator<S> for MeshImplicit {
     fn take_notice(&mut self) -> Option<String> {
         self.notice.take()
     }
+    /// Every value carried from one step to the next: the time, the displacement, velocity
+    /// and acceleration (and the displacement before, for the work), the loads and
+    /// reactions now and at the last step, the element stresses and strains, every energy
+    /// accumulator and the largest static residual. Not carried: the stiffness and its
+    /// factorization (made again identically from the scene) and the solve's buffers.
+    fn persist(&mut self, v: &mut dyn crate::contract::persist::StateVisitor) -> bool {
+        use crate::contract::persist;
+        persist::f64(v, "implicit.h", &mut self.h);
+        persist::f64(v, "implicit.t", &mut self.t);
+        for (name, x) in [
+            ("implicit.u", &mut self.u),
+            ("implicit.v", &mut self.v),
+            ("implicit.a", &mut self.a),
+            ("implicit.u_prev", &mut self.u_prev),
+            ("implicit.f", &mut self.f),
+            ("implicit.f_prev", &mut self.f_prev),
+            ("implicit.reaction", &mut self.reaction),
+            ("implicit.reaction_prev", &mut self.reaction_prev),
+        ] {
+            v.f64s(name, x);
+        }
+        v.f64s("implicit.stress", self.stress.as_flattened_mut());
+        v.f64s("implicit.strain", self.strain.as_flattened_mut());
+        let e = &mut self.energy;
+        let mut terms = [
+            e.kinetic,
+            e.strain,
+            e.hourglass,
+            e.foundation,
+            e.external_work,
+            e.dissipated,
+            e.plastic,
+            e.tie_work,
+            e.half_step,
+        ];
+        v.f64s("implicit.energy", &mut terms);
+        [
+            e.kinetic,
+            e.strain,
+            e.hourglass,
+            e.foundation,
+            e.external_work,
+            e.dissipated,
+            e.plastic,
+            e.tie_work,
+            e.half_step,
+        ] = terms;
+        persist::f64(v, "implicit.residual", &mut self.residual);
+        true
+    }
 }
 
 /// The integrator of a scene whose meshes use an implicit `mesh_method`: the scene must be
