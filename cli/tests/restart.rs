@@ -123,6 +123,15 @@ fn a_run_continued_from_its_checkpoint_is_the_run_made_straight_through() {
             "2000",
             &[][..],
         ),
+        // state_time: the checkpoint falls inside the window, which the restart solves again
+        (
+            "models/state_time_double_pendulum.mbd",
+            "5",
+            "3.2",
+            "4",
+            "60",
+            &[][..],
+        ),
         // an implicit mesh analysis (Newmark)
         (
             "models/cantilever_newmark.mbd",

@@ -308,3 +308,18 @@ fn implicit_mesh_analyses_restart_bitwise() {
         );
     }
 }
+
+/// `state_time` restarts bitwise inside a window and at a window's end: the checkpoint
+/// holds the state the window started from, and the restart solves that window again (the
+/// same Newton iterations on the same numbers) before going on. Reference: the run made
+/// straight through over three windows of 64 elements × 4 steps; tolerance: none.
+#[test]
+fn state_time_restarts_bitwise_inside_a_window() {
+    let scene = load_model("state_time_double_pendulum.mbd");
+    for k in [300, 256, 1] {
+        assert!(
+            restart(&scene, &scene.simulate.method, scene.simulate.step, 600, k),
+            "state_time does not persist"
+        );
+    }
+}

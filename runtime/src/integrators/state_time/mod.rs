@@ -64,6 +64,11 @@ pub struct StateTime {
     cur: State,
     ce: ConstraintEval,
     stats: Stats,
+    /// The state the current window started from (what a restart solves it again from).
+    win_start: State,
+    /// Loaded from a checkpoint: the current window must be solved again from
+    /// `win_start` before the next step.
+    resolve: bool,
 }
 
 /// Above this drift of the direction cosines from orthonormal (`|c² + s² − 1|` at any
@@ -116,9 +121,11 @@ impl StateTime {
             t_start: start.t,
             k: 0,
             win: None,
+            win_start: cur.clone(),
             cur,
             ce: ConstraintEval::new(rows),
             stats: Stats::default(),
+            resolve: false,
         })
     }
 
@@ -131,6 +138,7 @@ impl StateTime {
     fn next_window<S: System>(&mut self, sys: &S) -> Result<u32, StepError> {
         let plane = self.model.plane;
         let nb = self.model.bodies.len();
+        self.win_start.clone_from(&self.cur);
         let s = &self.cur;
         let start: Vec<BodyStart> = (0..nb)
             .map(|b| BodyStart {
@@ -366,6 +374,15 @@ impl<S: System> Integrator<S> for StateTime {
     }
     fn step(&mut self, sys: &S) -> Result<StepInfo, StepError> {
         let mut iterations = 0;
+        if self.resolve {
+            // a restart: the window the checkpoint was taken in, solved again from the same
+            // start (the same bits), then the checkpoint's place in it
+            self.resolve = false;
+            let (k, stats, cur) = (self.k, self.stats, self.cur.clone());
+            self.cur.clone_from(&self.win_start);
+            self.next_window(sys)?;
+            (self.k, self.stats, self.cur) = (k, stats, cur);
+        }
         if self.win.is_none() || self.k >= self.window_elements * self.spe {
             iterations = self.next_window(sys)?;
         }
@@ -395,6 +412,47 @@ impl<S: System> Integrator<S> for StateTime {
                 "state_time: the direction cosines drifted from orthonormal by {d:.1e} (c² + s² − 1, largest over the nodes); the time elements do not resolve the rotation to better than that, and the joint forces act on moment arms off by up to half of it: use shorter elements (a smaller step or fewer steps_per_element)"
             )
         })
+    }
+    /// The run's place (steps, the step in the window, the start time), the state now and
+    /// the state the window started from, and the statistics. The window's solution is not
+    /// saved: a restart solves the window again from its start, which gives the same bits.
+    fn persist(&mut self, v: &mut dyn crate::contract::persist::StateVisitor) -> bool {
+        use crate::contract::persist;
+        persist::u64(v, "state_time.steps", &mut self.steps);
+        persist::usize(v, "state_time.k", &mut self.k);
+        persist::f64(v, "state_time.t_start", &mut self.t_start);
+        let mut has_window = self.win.is_some() || self.resolve;
+        persist::bool(v, "state_time.window", &mut has_window);
+        for (name, st) in [
+            ("state_time.cur", &mut self.cur),
+            ("state_time.win_start", &mut self.win_start),
+        ] {
+            persist::f64(v, name, &mut st.t);
+            persist::poses(v, name, &mut st.pose);
+            persist::twists(v, name, &mut st.twist);
+            v.f64s(name, &mut st.lambda);
+            v.bools(name, &mut st.active);
+        }
+        let s = &mut self.stats;
+        let mut counts = [
+            u64::from(s.windows),
+            u64::from(s.iterations),
+            u64::from(s.max_iterations),
+            s.equations as u64,
+        ];
+        v.u64s("state_time.counts", &mut counts);
+        s.windows = counts[0] as u32;
+        s.iterations = counts[1] as u32;
+        s.max_iterations = counts[2] as u32;
+        s.equations = counts[3] as usize;
+        persist::f64(v, "state_time.cosine_drift", &mut s.cosine_drift);
+        persist::f64(v, "state_time.position_residual", &mut s.position_residual);
+        // loading: the window is solved again at the next step (saving: unchanged)
+        self.resolve = has_window && self.win.is_none();
+        if self.resolve {
+            self.base.clone_from(&self.win_start.pose);
+        }
+        true
     }
     fn stats(&self) -> Vec<(&'static str, f64)> {
         let s = &self.stats;
