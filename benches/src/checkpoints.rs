@@ -34,8 +34,9 @@ fn hex_box(n: usize) -> String {
     )
 }
 
-/// Write `bytes` MiB to a file in `dir` with one fsync: MB/s.
-fn disk_bandwidth(dir: &Path, mib: usize) -> f64 {
+/// Write `mib` MiB to a file in `dir` with one fsync: MB/s (also the `output` benchmark's
+/// yardstick).
+pub(crate) fn disk_bandwidth(dir: &Path, mib: usize) -> f64 {
     let path = dir.join("bandwidth.bin");
     let block = vec![0x5au8; 1 << 20];
     let t = Instant::now();

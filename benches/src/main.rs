@@ -9,6 +9,7 @@
 //! cargo run --release -p mbdc-bench -- meshes [SCALE] [ROUNDS]  meshes: element rates against the measured bandwidth and flop rate, and the assembly strategies
 //! cargo run --release -p mbdc-bench -- meshes-assembly [SCALE] [ROUNDS]  the assembly strategies side by side alone
 //! cargo run --release -p mbdc-bench -- checkpoints [ROUNDS]  checkpoint save, write and restart read against a step and the disk
+//! cargo run --release -p mbdc-bench -- output [ROUNDS] [SCALE]  whole runs with output off and every K steps, against the disk
 //! ```
 //!
 //! Timings are interleaved rounds (every candidate once per round, in turn) and the best of
@@ -34,6 +35,7 @@ use mbdc_runtime::system::{ConstraintEval, Need, System, Wrench};
 
 mod checkpoints;
 mod meshes;
+mod output;
 
 fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..")
@@ -61,6 +63,10 @@ fn main() {
         Some("checkpoints") => {
             checkpoints::checkpoints(args.get(1).and_then(|s| s.parse().ok()).unwrap_or(3))
         }
+        Some("output") => output::output(
+            args.get(1).and_then(|s| s.parse().ok()).unwrap_or(2),
+            args.get(2).and_then(|s| s.parse().ok()).unwrap_or(1.0),
+        ),
         Some("meshes-assembly") => meshes::assembly_only(
             args.get(1).and_then(|s| s.parse().ok()).unwrap_or(0.1),
             args.get(2).and_then(|s| s.parse().ok()).unwrap_or(3),
@@ -79,7 +85,7 @@ fn main() {
         ),
         _ => {
             eprintln!(
-                "usage: mbdc-bench steps [ROUNDS] | size | startup [MBDC] | profile [STEPS] | beams [ROUNDS] | meshes [SCALE] [ROUNDS] | meshes-assembly [SCALE] [ROUNDS] | checkpoints [ROUNDS]"
+                "usage: mbdc-bench steps [ROUNDS] | size | startup [MBDC] | profile [STEPS] | beams [ROUNDS] | meshes [SCALE] [ROUNDS] | meshes-assembly [SCALE] [ROUNDS] | checkpoints [ROUNDS] | output [ROUNDS] [SCALE]"
             );
             std::process::exit(2);
         }

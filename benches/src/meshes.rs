@@ -406,7 +406,7 @@ fn memory(ty: Type, n: usize, steps: usize) -> Option<[f64; 5]> {
 }
 
 /// CPU time of this process so far (user + system, s; `/proc/self/stat` at 100 ticks/s).
-fn cpu_seconds() -> f64 {
+pub(crate) fn cpu_seconds() -> f64 {
     std::fs::read_to_string("/proc/self/stat")
         .ok()
         .and_then(|s| {
@@ -419,7 +419,7 @@ fn cpu_seconds() -> f64 {
 }
 
 /// `/proc/loadavg`'s first three fields.
-fn load_average() -> String {
+pub(crate) fn load_average() -> String {
     std::fs::read_to_string("/proc/loadavg")
         .map(|s| s.split_whitespace().take(3).collect::<Vec<_>>().join(" "))
         .unwrap_or_else(|_| "n/a".into())
