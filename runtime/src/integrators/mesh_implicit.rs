@@ -544,29 +544,21 @@ impl<S: System> Integrator<S> for MeshImplicit {
         v.f64s("implicit.stress", self.stress.as_flattened_mut());
         v.f64s("implicit.strain", self.strain.as_flattened_mut());
         let e = &mut self.energy;
-        let mut terms = [
-            e.kinetic,
-            e.strain,
-            e.hourglass,
-            e.foundation,
-            e.external_work,
-            e.dissipated,
-            e.plastic,
-            e.tie_work,
-            e.half_step,
-        ];
-        v.f64s("implicit.energy", &mut terms);
-        [
-            e.kinetic,
-            e.strain,
-            e.hourglass,
-            e.foundation,
-            e.external_work,
-            e.dissipated,
-            e.plastic,
-            e.tie_work,
-            e.half_step,
-        ] = terms;
+        persist::f64_fields(
+            v,
+            "implicit.energy",
+            [
+                &mut e.kinetic,
+                &mut e.strain,
+                &mut e.hourglass,
+                &mut e.foundation,
+                &mut e.external_work,
+                &mut e.dissipated,
+                &mut e.plastic,
+                &mut e.tie_work,
+                &mut e.half_step,
+            ],
+        );
         persist::f64(v, "implicit.residual", &mut self.residual);
         true
     }
