@@ -25,6 +25,24 @@ fn run(model: &str, out: &Path, extra: &[&str]) -> (bool, String) {
     )
 }
 
+/// Start the interpreter on `model` into `out` with `args` (and `RAYON_NUM_THREADS` set to
+/// `threads` if given), and kill it (SIGKILL) after `ms` milliseconds.
+fn killed_after(model: &str, out: &Path, args: &[&str], ms: u64, threads: Option<&str>) {
+    let mut c = command();
+    c.args(["run", "--interp", "-q", "-o", s(out)])
+        .args(args)
+        .arg(root().join(model))
+        .stdout(Stdio::null())
+        .stderr(Stdio::null());
+    if let Some(n) = threads {
+        c.env("RAYON_NUM_THREADS", n);
+    }
+    let mut child = c.spawn().unwrap();
+    std::thread::sleep(std::time::Duration::from_millis(ms));
+    let _ = child.kill(); // SIGKILL
+    let _ = child.wait();
+}
+
 /// The files of two output folders that must be equal, byte for byte.
 fn same_output(a: &Path, b: &Path) {
     for f in [
@@ -209,17 +227,7 @@ fn a_run_killed_at_any_moment_restarts_bitwise() {
     let mut mid_run = 0;
     for (i, ms) in [100u64, 350, 700].into_iter().enumerate() {
         let out = dir.join(format!("killed{i}"));
-        let mut child = command()
-            .args(["run", "--interp", "-q", "-o", s(&out)])
-            .args(args)
-            .arg(root().join(DP))
-            .stdout(Stdio::null())
-            .stderr(Stdio::null())
-            .spawn()
-            .unwrap();
-        std::thread::sleep(std::time::Duration::from_millis(ms));
-        let _ = child.kill(); // SIGKILL
-        let _ = child.wait();
+        killed_after(DP, &out, &args, ms, None);
         if summary(&out)["status"] == "started" {
             mid_run += 1;
         }
@@ -475,18 +483,7 @@ fn an_exodus_run_killed_at_any_moment_restarts_bitwise_with_other_threads() {
     let (mut mid_run, mut read_back, mut restarts) = (0, 0, 0);
     for (i, ms) in [150u64, 500, 1000].into_iter().enumerate() {
         let out = dir.join(format!("killed{i}"));
-        let mut child = command()
-            .args(["run", "--interp", "-q", "-o", s(&out)])
-            .args(args)
-            .arg(root().join(model))
-            .env("RAYON_NUM_THREADS", "2")
-            .stdout(Stdio::null())
-            .stderr(Stdio::null())
-            .spawn()
-            .unwrap();
-        std::thread::sleep(std::time::Duration::from_millis(ms));
-        let _ = child.kill(); // SIGKILL
-        let _ = child.wait();
+        killed_after(model, &out, &args, ms, Some("2"));
         if summary(&out)["status"] != "started" {
             continue; // it finished before the kill
         }

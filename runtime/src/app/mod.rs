@@ -75,8 +75,8 @@ pub struct Settings {
 /// Set up checkpoints and restart in `cfg` from the scene's `output { checkpoint_every …;
 /// checkpoint_seconds …; keep_checkpoints … }` and the user's settings, which override them
 /// one by one: where checkpoints go (`DIR/checkpoints`) and when, and, with `restart`, the
-/// newest checkpoint of `dir` to continue from. Returns notes for the user (a newer checkpoint refused as damaged, where
-/// the run continues from).
+/// newest checkpoint of `dir` to continue from. Returns notes for the user (a newer
+/// checkpoint refused as damaged, where the run continues from).
 ///
 /// # Errors
 /// An option out of range, no checkpoint to restart from, or a checkpoint of another run

@@ -1815,7 +1815,7 @@ pub fn run_to_dir<S: System>(
     }
     if let Some(t) = obs.first_wait {
         let m = format!(
-            "the run waited {:.3} s for the output writer, at {} of its {} frames from t = {t:.6} s on ({:.1} % of its wall time)",
+            "the run waited {:.3} s for the output writer, at {} of its {} frames ({:.1} % of its wall time; the waits passed {WAIT_WORTH_SAYING} s at t = {t:.6} s)",
             waits.seconds,
             waits.count,
             waits.frames,
