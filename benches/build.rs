@@ -1,5 +1,6 @@
 //! Generates the scenes the benchmarks compare through the `build.rs` API, in both code
-//! layouts: the 3-D double pendulum, the four-bar and the 32-link chain.
+//! layouts: the 3-D double pendulum, the four-bar and the 32-link chain; and the 1000-element
+//! beam of `benches/models/beam1000.mbd` in its default layout.
 
 use std::fmt::Write as _;
 use std::path::PathBuf;
@@ -23,5 +24,11 @@ fn main() {
             writeln!(text, "include!({:?});", built.rs.display().to_string()).unwrap();
         }
     }
+    // the beam of `mbdc-bench beams`, in the layout it gets by default (tables: 1001 bodies)
+    let built = mbdc_compiler::Builder::new("models/beam1000.mbd")
+        .module("beam1000")
+        .out_dir(&out)
+        .build();
+    writeln!(text, "include!({:?});", built.rs.display().to_string()).unwrap();
     mbdc_compiler::embed::write_if_changed(&out.join("models.rs"), &text).expect("models.rs");
 }

@@ -5,7 +5,8 @@
 
 pub mod yardstick;
 
-/// The generated models: `double_pendulum_3d_{unrolled,tables}`, `four_bar_…`, `chain32_…`.
+/// The generated models: `double_pendulum_3d_{unrolled,tables}`, `four_bar_…`, `chain32_…`,
+/// `beam1000`.
 pub mod generated {
     include!(concat!(env!("OUT_DIR"), "/models.rs"));
 }

@@ -449,23 +449,7 @@ fn startup(mbdc: &Path) {
 /// A 1000-element beam clamped at one end (the cantilever's steel section, rotary inertia
 /// ×16), and 1000 free rigid bodies, in the language.
 fn beam_scenes() -> (Scene, Scene) {
-    let beam = r#"
-model beam1000 {
-  material steel { E 210 GPa; nu 0.3; rho 7850 kg/m^3 }
-  gravity (0, 0, -9.81) m/s^2
-  beam blade {
-    from (0, 0, 0) m
-    to (50, 0, 0) m
-    elements 1000
-    up (0, 0, 1)
-    material steel
-    shape rect(width: 2 cm, height: 1 cm)
-    rotary_inertia_scale 16
-    clamp start
-  }
-  simulate { duration 1 s; step 4 us }
-}
-"#;
+    let beam = load_bench_model("beam1000.mbd");
     let free = r#"
 model free1000 {
   gravity (0, 0, -9.81) m/s^2
@@ -480,7 +464,89 @@ model free1000 {
         let msg = l.render_plain();
         l.scene.unwrap_or_else(|| panic!("{msg}"))
     };
-    (load(beam), load(free))
+    (beam, load(free))
+}
+
+/// Seconds per element of one evaluation of every element of the beam of `bi` from `start`
+/// to `pose` with velocities `twist` and damping: (the damped variant
+/// `element_forces::<true>`, the element kernel followed by a damping evaluation that
+/// recomputes the frame, as the interpreter did before the variants). Best of 20 passes.
+fn damped_element(
+    bi: &Interp,
+    start: &State,
+    pose: &[mbdc_runtime::system::Pose],
+    twist: &[mbdc_runtime::system::Twist],
+) -> (f64, f64) {
+    use mbdc_runtime::beam_element::{
+        convected_frame, element_forces, internal_force, nodal_wrenches, section_rotations,
+        strain_rate, BeamNode, BeamSection, ElementForce, ElementState,
+    };
+    let bl = &bi.layout().beams;
+    let sec = BeamSection::from_scene(&bl.beams[0].section).expect("section");
+    let beta = 1e-6;
+    let node = |p: &[mbdc_runtime::system::Pose], b: usize| BeamNode {
+        pose: p[b],
+        twist: twist[b],
+    };
+    let fresh: Vec<ElementState> = bl
+        .elements
+        .iter()
+        .map(|e| ElementState::new(&[node(&start.pose, e.nodes[0]), node(&start.pose, e.nodes[1])]))
+        .collect::<Result<_, _>>()
+        .expect("elements");
+    let n = bl.elements.len() as f64;
+    let mut w = [Wrench::default(); 2];
+    let (mut a, mut b) = (f64::INFINITY, f64::INFINITY);
+    for pass in 0..20 {
+        let p = if pass % 2 == 0 { pose } else { &start.pose[..] };
+        let mut st = fresh.clone();
+        let t0 = Instant::now();
+        for (e, s) in bl.elements.iter().zip(st.iter_mut()) {
+            let nodes = [node(p, e.nodes[0]), node(p, e.nodes[1])];
+            black_box(element_forces::<true>(&sec, beta, s, &nodes, &mut w).expect("element"));
+            black_box(&w);
+        }
+        a = a.min(t0.elapsed().as_secs_f64() / n);
+        let mut st = fresh.clone();
+        let t0 = Instant::now();
+        for (e, s) in bl.elements.iter().zip(st.iter_mut()) {
+            let nodes = [node(p, e.nodes[0]), node(p, e.nodes[1])];
+            let mut out = ElementForce::default();
+            internal_force(&sec, s, &nodes, &mut out).expect("element");
+            let (gd, kd) = strain_rate(&nodes).expect("rate");
+            let (t, l) = convected_frame(&nodes[0].pose.r, &nodes[1].pose.r, &nodes[0].pose.c)
+                .expect("frame");
+            let sr = section_rotations(&nodes, &t);
+            let d = nodal_wrenches(
+                &t,
+                l,
+                &sr,
+                &(sec.c_gamma().component_mul(&gd) * beta),
+                &(sec.c_kappa().component_mul(&kd) * beta),
+            );
+            for i in 0..2 {
+                w[i].f = out.wrench[i].f + d[i].f;
+                w[i].t = out.wrench[i].t + d[i].t;
+            }
+            black_box(&w);
+        }
+        b = b.min(t0.elapsed().as_secs_f64() / n);
+    }
+    (a, b)
+}
+
+/// A model of `benches/models/`.
+fn load_bench_model(file: &str) -> Scene {
+    let loaded = mbdc_compiler::load_file(
+        PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+            .join("models")
+            .join(file),
+        &[],
+    );
+    match loaded.scene {
+        Some(s) => s,
+        None => panic!("{file}: {}", loaded.render_plain()),
+    }
 }
 
 /// Seconds per call of `f(n)` (best of `rounds`).
@@ -530,12 +596,23 @@ fn beams(rounds: usize) {
     for (k, p) in pose.iter_mut().enumerate() {
         p.r.z += 1e-4 * (k as f64 * 0.01).sin();
     }
-    let twist = start.twist.clone();
+    let mut twist = start.twist.clone();
+    for (k, w) in twist.iter_mut().enumerate() {
+        w.v.z = 1e-3 * (k as f64 * 0.02).cos();
+        w.w.y = 1e-3 * (k as f64 * 0.03).sin();
+    }
+    let bg: mbdc_bench::generated::beam1000::Model = generated(&beam);
     let mut kernel = 0.0;
     let mut beam_step = 0.0;
+    let mut beam_step_generated = 0.0;
     let mut body_step = 0.0;
     let mut peak = 0.0f64;
+    let (mut fused, mut separate) = (f64::INFINITY, f64::INFINITY);
     for _ in 0..rounds {
+        let (f, s) = damped_element(&bi, &start, &pose, &twist);
+        fused = fused.min(f);
+        separate = separate.min(s);
+        beam_step_generated = run_steps(&bg, hb, 100).0 / 100.0 / (elements + 1) as f64;
         kernel = best(1, 200, |n| {
             let t0 = Instant::now();
             for k in 0..n {
@@ -548,16 +625,17 @@ fn beams(rounds: usize) {
         body_step = run_steps(&fi, hf, 100).0 / 100.0 / 1000.0;
         peak = peak.max(scalar_peak(20_000_000));
     }
-    // floating-point operations of one `internal_force`, counted from the source (additions
-    // and multiplications; a square root or division counts as one): frame 33, section
-    // rotations 2×45, deformation increments 2×45 + Cayley 2×12, half rotation 21 + 36,
-    // T½ 45, chord increment 51, shear and curvature 15, resultant update 24, nodal forces
-    // 15 + 9 + 2×(15 + 6), total curvature 52
-    let flops = 33 + 90 + 90 + 24 + 57 + 45 + 51 + 15 + 24 + 66 + 52;
+    // floating-point operations of one undamped element evaluation (`element_forces::<false>`,
+    // what a step runs), counted from the source (additions and multiplications; a square
+    // root or division counts as one): frame 33, section rotations 2×45, deformation
+    // increments 2×45 + Cayley 2×12, half rotation 21 + 36, T½ 45, chord increment 51, shear
+    // and curvature 15, resultant update 24, nodal forces 15 + 9 + 2×(15 + 6). (Until stop 24
+    // the step also computed the total curvature, 52 more, which only output reads.)
+    let flops = 33 + 90 + 90 + 24 + 57 + 45 + 51 + 15 + 24 + 66;
     println!("# Beams: cost per element-step (best of {rounds} rounds)\n");
     println!("| quantity | value |\n|---|---|");
     println!(
-        "| element kernel (`internal_force` + bookkeeping), per element | {:.1} ns |",
+        "| element kernel (`element_forces::<false>` + bookkeeping), per element | {:.1} ns |",
         kernel * 1e9
     );
     println!(
@@ -569,8 +647,19 @@ fn beams(rounds: usize) {
         body_step * 1e9
     );
     println!(
+        "| the same step, generated code (`BeamKernel::elastic()`), per node | {:.1} ns (generated / interpreted {:.3}) |",
+        beam_step_generated * 1e9,
+        beam_step_generated / beam_step
+    );
+    println!(
         "| beam node step / rigid body step | {:.2} |",
         beam_step / body_step
+    );
+    println!(
+        "| damped element: the damped variant (frame once) / the elastic kernel + a damping evaluation that recomputes the frame | {:.1} ns / {:.1} ns = {:.3} |",
+        fused * 1e9,
+        separate * 1e9,
+        fused / separate
     );
     println!("| flops per element evaluation (counted) | {flops} |");
     println!(

@@ -1,6 +1,6 @@
 //! The generated source under review: insta snapshots of the Rust generated for three small
 //! scenes (every change to the generator shows up as a snapshot diff), "only the effects the
-//! scene calls for" (and only its meshes' element kernels) checked on the generated source of
+//! scene calls for" (and only its meshes' element kernels and its beams' element variants) checked on the generated source of
 //! several scenes, and the size of the source of a long chain against a short one.
 //!
 //! The scene's JSON is kept out of the source here (`SceneJson::Include`, as `build.rs` and
@@ -125,8 +125,9 @@ fn only_the_effects_the_scene_calls_for() {
             );
             check("locks", on("locks"), &["update_locks", "joint_angle"]);
             check("gravity", on("gravity"), &["forces::gravity"]);
-            // No scene here has a mesh: no element kernel, loop or table.
+            // No scene here has a mesh or a beam: no element kernel, loop or table.
             check("meshes", false, ELEMENT_MARKERS);
+            check("beams", false, BEAM_MARKERS);
             // Time functions (and the other scalar functions: force values, curves) exist only
             // for scenes with time dependence, drivers, applied forces or curve joints.
             let functions = on("time_dependence")
@@ -207,6 +208,60 @@ fn only_the_effects_the_scene_calls_for() {
         }
     }
 
+    // A mesh scene has no beam code.
+    for name in ["hex_bar", "plate"] {
+        let src = gen(&load_model(name), None).source;
+        assert!(!has_any(&src, BEAM_MARKERS), "{name}: beam code in\n{src}");
+    }
+
+    // A beam scene's code names the element variants its beams use, each once, and no
+    // element kernel of a mesh: (model, the variants it must name).
+    let mut mixed = load_model("cantilever");
+    let mut damped = mixed.beams[0].clone();
+    damped.name = "damped_twin".into();
+    damped.damping = 1e-6;
+    mixed.beams.push(damped);
+    let beams: [(&str, Scene, &[&str]); 3] = [
+        (
+            "cantilever",
+            load_model("cantilever"),
+            &["BeamKernel::elastic()"],
+        ),
+        (
+            "arm_probe",
+            load_model("arm_probe"),
+            &["BeamKernel::damped()"],
+        ),
+        (
+            "cantilever with a damped twin",
+            mixed,
+            &["BeamKernel::elastic()", "BeamKernel::damped()"],
+        ),
+    ];
+    for (name, scene, variants) in &beams {
+        for mode in [Mode::Unrolled, Mode::Tables] {
+            let src = gen(scene, Some(mode)).source;
+            let code: Vec<&str> = src
+                .lines()
+                .filter(|l| !l.trim_start().starts_with("//"))
+                .collect();
+            let code = code.join("\n");
+            let found: Vec<&str> = code
+                .match_indices("BeamKernel::")
+                .map(|(i, _)| {
+                    let end = code[i..].find(')').map_or(code.len(), |e| i + e + 1);
+                    &code[i..end]
+                })
+                .collect();
+            assert_eq!(&found, variants, "{name} ({mode:?}): variants in\n{src}");
+            assert!(code.contains("fn beam_kernels"), "{name} ({mode:?})");
+            assert!(
+                !has_any(&code, ELEMENT_MARKERS),
+                "{name} ({mode:?}): mesh code"
+            );
+        }
+    }
+
     // The quadrature of hex8 and quad4 is a kernel variant: a one-point hex8 mesh names its
     // own loop and not the fully integrated kernel (its hourglass coefficient is data).
     let mut one_point = load_model("hex_bar");
@@ -250,6 +305,9 @@ const ELEMENT_MARKERS: &[&str] = &[
     "Tet4",
     "Hex8",
 ];
+
+/// What code for beams would contain: the variants' table and its hook.
+const BEAM_MARKERS: &[&str] = &["beam_kernels", "BeamKernel", "BEAM_KERNELS", "beam_element"];
 
 /// The chain of `models/chain.mbd` with `N` links, as inline text.
 const CHAIN: &str = "model chain {

@@ -1,7 +1,8 @@
-//! The generated code is warning-free: the Rust of every rigid model in `models/` and of a
-//! scene with every kind of contact (which no model has), in both layouts (so the small
-//! models' table code and the large models' unrolled code are checked too), is written into one small crate with `#![deny(warnings)]` and `#![deny(clippy::all)]`,
-//! which `cargo clippy` must accept. The generated module carries no `allow` of its own, so
+//! The generated code is warning-free: the Rust of every model in `models/` the runtime
+//! simulates (rigid, with beams, with meshes) and of a scene with every kind of contact
+//! (which no model has), in both layouts (so the small models' table code and the large
+//! models' unrolled code are checked too), is written into one small crate with
+//! `#![deny(warnings)]` and `#![deny(clippy::all)]`, which `cargo clippy` must accept. The generated module carries no `allow` of its own, so
 //! an unused import, variable or helper, or a pattern clippy flags, fails this test.
 //!
 //! The crate lives under the target directory (`CARGO_TARGET_DIR` if set, else the
@@ -157,7 +158,7 @@ fn generated_code_passes_clippy_with_warnings_denied() {
         let Some(scene) = loaded.scene else {
             panic!("{}: {}", file.display(), loaded.render_plain())
         };
-        // Only scenes the rigid-body runtime simulates (no beams, no meshes).
+        // Only scenes the runtime simulates (bodies, beams, meshes).
         if Interp::new(&scene).is_ok() {
             scenes.push((file.display().to_string(), scene));
         }

@@ -774,6 +774,29 @@ pub fn file(
         )
     };
 
+    // ---- beams: each element variant the beams use, monomorphized (undamped, damped); the
+    // sections' constants and damping coefficients stay data in the layout
+    let (beam_items, beam_kernels) = if spec.beams.is_empty() {
+        (quote!(), quote!())
+    } else {
+        let variants = spec.beams.iter().map(|v| {
+            let c = format_ident!("{}", v.constructor());
+            quote!(BeamKernel::#c())
+        });
+        (
+            quote! {
+                /// The beams' element variants: each beam's elements run the one of its
+                /// damping; its section constants are in the layout.
+                static BEAM_KERNELS: BeamKernels = BeamKernels::new(&[#(#variants),*]);
+            },
+            quote! {
+                fn beam_kernels(&self) -> Option<&dyn core::any::Any> {
+                    Some(&BEAM_KERNELS)
+                }
+            },
+        )
+    };
+
     // ---- the `System` methods whose parameters depend on the scene: a parameter the body
     // does not read is named `_name`.
     let applied_body = quote!(#gravity_applied #applied_terms);
@@ -823,6 +846,8 @@ pub fn file(
             #tree_joint
 
             #mesh_kernels
+
+            #beam_kernels
 
             fn has_velocity_forces(&self) -> bool {
                 self.velocity_forces
@@ -891,6 +916,8 @@ pub fn file(
         #(#shape_items)*
 
         #mesh_items
+
+        #beam_items
 
         /// The scene as a `System`: structure in code, numbers in the fields.
         #[derive(Clone, Debug)]
@@ -1023,6 +1050,10 @@ const IMPORTS: &[(&str, &[&str])] = &[
     (
         "mbdc_runtime::integrators::mesh_kernels",
         &["BlockKernel", "BlockKernels"],
+    ),
+    (
+        "mbdc_runtime::integrators::beam_kernels",
+        &["BeamKernel", "BeamKernels"],
     ),
     (
         "mbdc_runtime::solid",

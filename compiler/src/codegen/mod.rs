@@ -44,6 +44,19 @@
 //! a `match` on its kind before the run). The loops and kernels are the interpreter's, so
 //! the two paths agree to the last bit here too.
 //!
+//! **Beams: the element variants in code, the sections in data.** For a scene with beams,
+//! the spec lists the element variants its beams use, each once
+//! ([`mbdc_runtime::compiled::BeamVariant`]: undamped, or with stiffness-proportional
+//! damping), and the generated module writes their table
+//! (`mbdc_runtime::integrators::beam_kernels::BeamKernels`), each entry the element force
+//! function monomorphized for its variant — `BeamKernel::damped()` is
+//! `element_forces::<true>`, which computes the element's frame once for the elastic and the
+//! damping forces; `BeamKernel::elastic()` has no damping code — and hands it to the
+//! integrators through `System::beam_kernels`. Each beam runs the entry of its variant. The
+//! section constants (EA, GA, GJ, EI, inertia) and the damping coefficient stay data, for
+//! the reason above: folding them would save a load per constant and cost a rebuild for
+//! every `--set` of a section. A scene without beams has no beam tokens.
+//!
 //! **Two layouts** ([`Mode`]). Up to [`UNROLL_MAX_ITEMS`] row groups and force terms
 //! (and [`UNROLL_MAX_BODIES`] bodies), [`Mode::Unrolled`]: one straight-line kernel call per
 //! joint with constant body indices and row offsets, sizes as `const`s and fixed-size arrays

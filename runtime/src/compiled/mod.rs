@@ -8,8 +8,9 @@
 //! is the single source of truth for what a scene evaluates, in which order. [`Plan::new`]
 //! builds it and splits it into
 //! - a [`Spec`]: which kernels and force terms, with which bodies and rows, the shapes of
-//!   the time functions ([`FnShape`]) and the meshes' element kernels ([`MeshBlock`]) —
-//!   everything the generated code is written for;
+//!   the time functions ([`FnShape`]), the meshes' element kernels ([`MeshBlock`]) and the
+//!   beams' element variants ([`BeamVariant`]) — everything the generated code is written
+//!   for;
 //! - [`PlanData`]: every number (joint and force geometry, constants and tables of the time
 //!   functions, lock angles, gravity, the initial state, the layout with names and masses).
 //!
@@ -363,6 +364,30 @@ pub struct Spec {
     /// left out of the key's JSON, so that rigid scenes keep their keys.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub meshes: Vec<MeshBlock>,
+    /// The beams' element variants, each once in order of first appearance: which element
+    /// function (undamped, damped) generated code names (the section constants and the
+    /// damping coefficient are data). Empty without beams, and then left out of the key's
+    /// JSON, so that scenes without beams keep their keys.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub beams: Vec<BeamVariant>,
+}
+
+/// One element variant of the beams: the kernel generated code names for it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+pub struct BeamVariant {
+    /// Whether the beams of this variant have stiffness-proportional damping.
+    pub damped: bool,
+}
+
+impl BeamVariant {
+    /// The constructor of its entry in `BeamKernels` (`elastic`, `damped`).
+    pub fn constructor(&self) -> &'static str {
+        if self.damped {
+            "damped"
+        } else {
+            "elastic"
+        }
+    }
 }
 
 /// The structure of one element block of a mesh: the kernel generated code names for it.
@@ -699,6 +724,13 @@ impl Plan {
                     plastic: b.material.plastic.is_some(),
                 })
                 .collect(),
+            beams: crate::integrators::beam_kernels::BeamKernels::interpreted(
+                &interp.layout().beams,
+            )
+            .kernels()
+            .iter()
+            .map(|k| BeamVariant { damped: k.damped })
+            .collect(),
         };
         Ok(Plan { interp, spec, data })
     }

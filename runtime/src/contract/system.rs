@@ -377,4 +377,16 @@ pub trait System: Sync {
     fn mesh_kernels(&self) -> Option<&dyn std::any::Any> {
         None
     }
+
+    /// The beams' element variants chosen by generated code: a
+    /// `mbdc_runtime::integrators::beam_kernels::BeamKernels` (each variant its beams use,
+    /// monomorphized: undamped, damped), behind [`std::any::Any`] for the reason
+    /// [`System::mesh_kernels`] gives (an entry is a function of the element kernel's
+    /// types, which this floor may not name). Its one reader, `BeamKernels::of_system`,
+    /// downcasts it and refuses a run when it is anything else. Default: `None`, and the
+    /// integrators choose each beam's variant from its damping at run time (the
+    /// interpreter). Generated code overrides it only for scenes with beams.
+    fn beam_kernels(&self) -> Option<&dyn std::any::Any> {
+        None
+    }
 }

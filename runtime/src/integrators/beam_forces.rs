@@ -20,10 +20,11 @@
 //! time (once per run; the count is in the statistics).
 
 use crate::contract::system::{BeamElementLayout, Layout, Pose, Twist, Wrench};
+use crate::integrators::beam_kernels::{BeamKernels, ElementFn};
 use crate::integrators::{State, StepError};
 use crate::kernels::beam_element::{
-    convected_frame, internal_force, nodal_wrenches, section_rotations, strain_energy, strain_rate,
-    BeamNode, BeamSection, ElementForce, ElementState,
+    convected_frame, nodal_wrenches, section_rotations, strain_energy, strain_rate, BeamNode,
+    BeamSection, ElementState,
 };
 
 /// The relative rotation of an element's two sections within one step above which the
@@ -37,6 +38,8 @@ pub struct BeamForces {
     sections: Vec<BeamSection>,
     /// Per beam: the damping coefficient β (s).
     damping: Vec<f64>,
+    /// Per beam: its element variant's function ([`BeamKernels::per_beam`]).
+    kernels: Vec<ElementFn>,
     /// Per beam: its name (for reports).
     names: Vec<String>,
     /// Per element: its beam and node bodies.
@@ -120,12 +123,31 @@ impl BeamForces {
     /// The beams of `layout` (`None` if it has none), starting from `start`: its element
     /// states if it carries them (a restart), else stress-free in its configuration.
     /// The nodal forces are those of the states' resultants at `start`'s positions (and the
-    /// damping of its velocities).
+    /// damping of its velocities). Each beam's elements run the interpreter's choice of
+    /// variant ([`BeamKernels::interpreted`]); [`BeamForces::with_kernels`] takes a table.
     pub fn new(layout: &Layout, start: &State) -> Result<Option<BeamForces>, StepError> {
+        Self::with_kernels(layout, &BeamKernels::interpreted(&layout.beams), start)
+    }
+
+    /// [`BeamForces::new`] with the element variants of `kernels` (generated code's table,
+    /// [`crate::contract::system::System::beam_kernels`]); errors when it lacks a beam's
+    /// variant.
+    pub fn with_kernels(
+        layout: &Layout,
+        kernels: &BeamKernels,
+        start: &State,
+    ) -> Result<Option<BeamForces>, StepError> {
         let bl = &layout.beams;
         if bl.is_empty() {
             return Ok(None);
         }
+        let per_beam = kernels
+            .per_beam(bl)
+            .map_err(|(b, message)| StepError::Beam {
+                beam: bl.beams[b].name.clone(),
+                element: 0,
+                message,
+            })?;
         let fail = |e: usize, message: String| StepError::Beam {
             beam: bl.beams[bl.elements[e].beam].name.clone(),
             element: e - bl.beams[bl.elements[e].beam].first_element,
@@ -157,6 +179,7 @@ impl BeamForces {
         let mut f = BeamForces {
             sections,
             damping: bl.beams.iter().map(|b| b.damping).collect(),
+            kernels: per_beam,
             names: bl.beams.iter().map(|b| b.name.clone()).collect(),
             elements: bl.elements.clone(),
             states,
@@ -189,7 +212,7 @@ impl BeamForces {
     /// Elements are independent: from [`PAR_MIN_ELEMENTS`] on they are evaluated in
     /// parallel (rayon, chunks of at least 256). Does not allocate on the serial path.
     pub fn update(&mut self, pose: &[Pose], twist: &[Twist]) -> Result<(), StepError> {
-        let (sections, damping) = (&self.sections, &self.damping);
+        let (sections, damping, kernels) = (&self.sections, &self.damping, &self.kernels);
         // (largest relative turn, its element, first failing element and why)
         type Acc = (f64, usize, Option<(usize, String)>);
         let one =
@@ -198,15 +221,11 @@ impl BeamForces {
                     node(pose, twist, el.nodes[0]),
                     node(pose, twist, el.nodes[1]),
                 ];
-                let mut out = ElementForce::default();
-                if let Err(err) = internal_force(&sections[el.beam], st, &nodes, &mut out) {
-                    return (0.0, e, Some((e, err.to_string())));
+                let b = el.beam;
+                match (kernels[b])(&sections[b], damping[b], st, &nodes, w) {
+                    Ok(turn) => (turn, e, None),
+                    Err(err) => (0.0, e, Some((e, err.to_string()))),
                 }
-                *w = out.wrench;
-                if let Err(m) = add_damping(&sections[el.beam], damping[el.beam], &nodes, w) {
-                    return (0.0, e, Some((e, m)));
-                }
-                (out.d_kappa.norm() * out.length, e, None)
             };
         let merge = |a: Acc, b: Acc| -> Acc {
             let err = match (a.2, b.2) {

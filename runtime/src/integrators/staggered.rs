@@ -449,7 +449,9 @@ impl TwoStage {
         sys.constraints(t0, &pose, &vel, Need::ALL, &mut ce);
         let mut applied = vec![Wrench::default(); nb];
         sys.applied(t0, &pose, &vel, &mut applied);
-        let beams = BeamForces::new(layout, start)?;
+        let beam_kernels =
+            super::beam_kernels::BeamKernels::of_system(sys).map_err(StartError::Invalid)?;
+        let beams = BeamForces::with_kernels(layout, &beam_kernels, start)?;
         if let Some(b) = &beams {
             b.add_to(&mut applied);
         }

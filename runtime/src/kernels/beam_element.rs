@@ -346,6 +346,37 @@ pub fn internal_force(
     nodes: &[BeamNode; 2],
     out: &mut ElementForce,
 ) -> Result<(), BeamError> {
+    let a = advance(section, state, nodes)?;
+    out.wrench = nodal_wrenches(&a.t, a.l, &a.s, &state.n, &state.m);
+    out.d_gamma = a.d_gamma;
+    out.d_kappa = a.d_kappa;
+    out.kappa_total = total_curvature(&nodes[0].pose.q, &nodes[1].pose.q, a.l);
+    out.length = a.l;
+    out.frame = a.t;
+    Ok(())
+}
+
+/// What the state update of one evaluation leaves for the nodal forces.
+struct Advanced {
+    /// Convected frame `T`.
+    t: Matrix3<f64>,
+    /// Chord length `ℓ`.
+    l: f64,
+    /// Section rotations `S_I`.
+    s: [Matrix3<f64>; 2],
+    /// Strain increments `Δγ`, `Δκ`.
+    d_gamma: Vector3<f64>,
+    d_kappa: Vector3<f64>,
+}
+
+/// Steps 1–4 of [`internal_force`]: the frame, the increments and the resultant update.
+/// On error `state` is left unchanged.
+#[inline(always)]
+fn advance(
+    section: &BeamSection,
+    state: &mut ElementState,
+    nodes: &[BeamNode; 2],
+) -> Result<Advanced, BeamError> {
     let x = [nodes[0].pose.r, nodes[1].pose.r];
     let c = [nodes[0].pose.c, nodes[1].pose.c];
     let (t, l) = convected_frame(&x[0], &x[1], &c[0])?;
@@ -384,14 +415,51 @@ pub fn internal_force(
     state.t_prev = t;
     state.s_prev = s;
     state.x_prev = x;
+    Ok(Advanced {
+        t,
+        l,
+        s,
+        d_gamma,
+        d_kappa,
+    })
+}
 
-    out.wrench = nodal_wrenches(&t, l, &s, &state.n, &state.m);
-    out.d_gamma = d_gamma;
-    out.d_kappa = d_kappa;
-    out.kappa_total = total_curvature(&nodes[0].pose.q, &nodes[1].pose.q, l);
-    out.length = l;
-    out.frame = t;
-    Ok(())
+/// What the integrators evaluate per element and force evaluation, monomorphized on
+/// whether the beam is damped: [`internal_force`]'s state update and nodal forces into `w`,
+/// without the total curvature (an output quantity, not a force), and with `DAMPED` the
+/// stiffness-proportional damping forces `β ℓ Bᵀ{diag(EA, GA₂, GA₃) γ̇; diag(GJ, EI₂, EI₃) κ̇}`
+/// ([`strain_rate`] of the nodes' twists) in the same frame, added. The frame, chord and
+/// section rotations are computed once for both, so the result is bitwise that of
+/// [`internal_force`] followed by a damping evaluation that recomputes them.
+///
+/// Returns the element's relative section turn in this evaluation, `|Δκ| ℓ` (the Cayley
+/// length of the turn), which the caller compares with its large-rotation threshold. On
+/// error `state` is left unchanged.
+#[inline]
+pub fn element_forces<const DAMPED: bool>(
+    section: &BeamSection,
+    beta: f64,
+    state: &mut ElementState,
+    nodes: &[BeamNode; 2],
+    w: &mut [Wrench; 2],
+) -> Result<f64, BeamError> {
+    let a = advance(section, state, nodes)?;
+    if DAMPED {
+        let (gd, kd) = strain_rate_in(&a.t, a.l, nodes);
+        let n = section.c_gamma().component_mul(&gd) * beta;
+        let m = section.c_kappa().component_mul(&kd) * beta;
+        // the elastic and the damping wrenches, summed (not the summed resultants' wrenches:
+        // the operations of the two evaluations, in their order)
+        let e = nodal_wrenches(&a.t, a.l, &a.s, &state.n, &state.m);
+        let d = nodal_wrenches(&a.t, a.l, &a.s, &n, &m);
+        for i in 0..2 {
+            w[i].f = e[i].f + d[i].f;
+            w[i].t = e[i].t + d[i].t;
+        }
+    } else {
+        *w = nodal_wrenches(&a.t, a.l, &a.s, &state.n, &state.m);
+    }
+    Ok(a.d_kappa.norm() * a.l)
 }
 
 /// The forces on an element's nodes from section resultants `N`, `M` (convected
@@ -443,11 +511,17 @@ pub fn strain_energy(state: &ElementState) -> f64 {
 /// wrenches: `Σ_I (f_I·v_I + t_I·ω_I) = −ℓ (N·γ̇ + M·κ̇)`. Returns `(γ̇, κ̇)`.
 pub fn strain_rate(nodes: &[BeamNode; 2]) -> Result<(Vector3<f64>, Vector3<f64>), BeamError> {
     let (t, l) = convected_frame(&nodes[0].pose.r, &nodes[1].pose.r, &nodes[0].pose.c)?;
+    Ok(strain_rate_in(&t, l, nodes))
+}
+
+/// [`strain_rate`] in a frame `t` and chord length `l` already computed.
+#[inline(always)]
+fn strain_rate_in(t: &Matrix3<f64>, l: f64, nodes: &[BeamNode; 2]) -> (Vector3<f64>, Vector3<f64>) {
     // S_Iᵀ ω_I = T C_I ω_I: the angular velocity in convected components.
     let w1 = t * (nodes[0].pose.c * nodes[0].twist.w);
     let w2 = t * (nodes[1].pose.c * nodes[1].twist.w);
     let g = t * (nodes[1].twist.v - nodes[0].twist.v) / l + 0.5 * Vector3::x().cross(&(w1 + w2));
-    Ok((g, (w2 - w1) / l))
+    (g, (w2 - w1) / l)
 }
 
 /// A node's lumped share of one element's inertia (notes B §3.1): half the element each.

@@ -126,6 +126,10 @@ impl System for Erased<'_> {
     fn mesh_kernels(&self) -> Option<&dyn std::any::Any> {
         self.0.mesh_kernels()
     }
+
+    fn beam_kernels(&self) -> Option<&dyn std::any::Any> {
+        self.0.beam_kernels()
+    }
 }
 
 /// The methods to compare: every one `integrators::make` supports, with the scene's options
