@@ -345,11 +345,6 @@ impl MeshDynamics {
         self.t
     }
 
-    /// The energies at the current time (those of [`MeshDynamics::state`]).
-    pub fn energy(&self) -> MeshEnergy {
-        self.energy
-    }
-
     /// Advance one step (nothing tied: see [`MeshDynamics::step_tied`]).
     ///
     /// # Errors

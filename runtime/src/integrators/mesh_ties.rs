@@ -193,8 +193,14 @@ impl Coupler {
     /// as the mesh's nodes get (velocity Verlet), so the output's momentum is the
     /// conserved half-step momentum plus `h/2` times the newest forces, which cancel.
     pub fn synchronize(&self, layout: &Layout, h: f64, out: &mut State) {
-        self.synchronize_bodies(layout, h, out);
         let m = &layout.meshes;
+        for tb in &m.tied_bodies {
+            let b = tb.body;
+            let (w, wp, mp) = (&self.wrench[b], &self.wrench_prev[b], &layout.mass[b]);
+            let t = &mut out.twist[b];
+            t.v += (w.f - wp.f) * (0.5 * h / mp.m);
+            t.w += mp.j_inv * (w.t - wp.t) * (0.5 * h);
+        }
         if out.mesh.v.len() != m.nodes() {
             return;
         }
@@ -204,18 +210,6 @@ impl Coupler {
                 let v = w.v + p.c * w.w.cross(&Vector3::from(*d));
                 out.mesh.v[n as usize] = [v.x, v.y, if t.plane { 0.0 } else { v.z }];
             }
-        }
-    }
-
-    /// The tied bodies' part of [`Coupler::synchronize`]: each tied body's velocity gets
-    /// `h/2 M⁻¹(Wⁿ⁺¹ − Wⁿ)`; the tied nodes are left as they are.
-    pub fn synchronize_bodies(&self, layout: &Layout, h: f64, out: &mut State) {
-        for tb in &layout.meshes.tied_bodies {
-            let b = tb.body;
-            let (w, wp, mp) = (&self.wrench[b], &self.wrench_prev[b], &layout.mass[b]);
-            let t = &mut out.twist[b];
-            t.v += (w.f - wp.f) * (0.5 * h / mp.m);
-            t.w += mp.j_inv * (w.t - wp.t) * (0.5 * h);
         }
     }
 }

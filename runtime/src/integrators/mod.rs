@@ -453,21 +453,6 @@ impl<S: System> Integrator<S> for WithMeshes {
             c.synchronize(sys.layout(), self.h, out);
         }
     }
-    fn watch_state(&self, sys: &S, out: &mut State) {
-        // the bodies whole, of the meshes their energies: a copy of every node's and
-        // element's fields each step would cost about as much memory traffic as the
-        // element loop itself
-        if let Some(i) = &self.inner {
-            let wrench: &[Wrench] = self.coupler.as_ref().map_or(&[], |c| &c.wrench);
-            i.state(&mesh_ties::Tied { sys, wrench }, out);
-        } else {
-            out.t = self.mesh.time();
-        }
-        out.mesh.energy = self.mesh.energy();
-        if let Some(c) = &self.coupler {
-            c.synchronize_bodies(sys.layout(), self.h, out);
-        }
-    }
     fn persist(&mut self, v: &mut dyn crate::contract::persist::StateVisitor) -> bool {
         // the rigid method's state (if the scene has bodies; without it nothing persists),
         // the meshes' and the ties'
@@ -748,16 +733,6 @@ pub trait Integrator<S: System> {
     fn step(&mut self, sys: &S) -> Result<StepInfo, StepError>;
     /// The synchronized state at [`Integrator::time`].
     fn state(&self, sys: &S, out: &mut State);
-    /// What the run's watchdog reads after every step, into `out`: the state of
-    /// [`Integrator::state`] except the meshes' nodal and element fields (displacements,
-    /// velocities, stresses, strains, plastic state), which only output frames, checkpoints
-    /// and retries read and which the driver then takes whole by [`Integrator::state`].
-    /// The meshes' energies are always there (the energy balance is checked every step).
-    /// Fields left out keep what `out` held. Default: the whole state (methods without
-    /// meshes).
-    fn watch_state(&self, sys: &S, out: &mut State) {
-        self.state(sys, out)
-    }
     /// Which constraint rows are enforced (locks engage during a run).
     fn active(&self) -> &[bool];
     /// Method statistics for the run summary (name, value).
