@@ -25,7 +25,7 @@ import numpy as np
 # mbdc's methods, as `MethodSpec::NAMES` (runtime/src/contract/scene.rs) lists them: what a
 # sweep asked to leave some out (`skip`) runs instead of its default choice
 METHODS = ["staggered", "baumgarte", "penalty", "coordinate_partitioning", "implicit_trapezoid",
-           "natural_partitioning", "rk4", "dopri5", "state_time"]
+           "natural_partitioning", "rk4", "dopri5", "dop853", "state_time"]
 
 
 def _sets(scene):

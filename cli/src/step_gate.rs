@@ -73,8 +73,11 @@ fn judge_estimate(est: &step_limits::Estimate, method: &MethodSpec, h: f64) -> V
             h * fast.omega
         ));
     }
-    // dopri5's accuracy is its tolerance's, whatever its output interval
-    let own_steps = matches!(method, MethodSpec::DormandPrince { .. });
+    // dopri5's and dop853's accuracy is their tolerance's, whatever their output interval
+    let own_steps = matches!(
+        method,
+        MethodSpec::DormandPrince { .. } | MethodSpec::DormandPrince853 { .. }
+    );
     if let Some(motion) = est.fastest_motion().filter(|_| h > accurate && !own_steps) {
         return Verdict::Warn(format!(
             "the step {h:.3e} s gives {:.1} steps per period of the {} (ω = {:.4e} rad/s); accuracy needs at least 20 (h ≤ {accurate:.3e} s)",

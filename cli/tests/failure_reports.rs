@@ -205,7 +205,8 @@ fn a_constrained_mode_above_the_limit_is_refused_with_its_body_named() {
 
 /// The stability estimate before the run: the stiff spring (ω = 1000 rad/s, h = 10 ms) is
 /// refused for an explicit method with the numbers, and runs with its own
-/// `implicit_trapezoid` and with `dopri5`, which steps under the limit by itself.
+/// `implicit_trapezoid` and with `dopri5` and `dop853`, which step under the limit by
+/// themselves.
 #[test]
 fn stiff_spring_is_refused_for_explicit_methods_and_runs_implicitly() {
     let model = root().join("models/hard/stiff_spring.mbd");
@@ -242,23 +243,25 @@ fn stiff_spring_is_refused_for_explicit_methods_and_runs_implicitly() {
         "{}",
         String::from_utf8_lossy(&out.stderr)
     );
-    // dopri5 is explicit but the step is only its output interval: its error control takes
-    // internal steps under the limit, so the same step is not refused
-    let out = mbdc(&[
-        "run",
-        "--interp",
-        "-q",
-        "--method",
-        "dopri5",
-        "-o",
-        s(&dir.join("dopri5")),
-        s(&model),
-    ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    // dopri5 and dop853 are explicit but the step is only their output interval: their error
+    // control takes internal steps under the limit, so the same step is not refused
+    for m in ["dopri5", "dop853"] {
+        let out = mbdc(&[
+            "run",
+            "--interp",
+            "-q",
+            "--method",
+            m,
+            "-o",
+            s(&dir.join(m)),
+            s(&model),
+        ]);
+        assert!(
+            out.status.success(),
+            "{m}: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+    }
     let _ = std::fs::remove_dir_all(&dir);
 }
 

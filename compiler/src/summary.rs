@@ -198,7 +198,9 @@ pub fn method_text(m: &MethodSpec) -> String {
             v
         }
         MethodSpec::CoordinatePartitioning | MethodSpec::RungeKutta4 => vec![],
-        MethodSpec::DormandPrince { tolerance } => vec![format!("tolerance {}", short(*tolerance))],
+        MethodSpec::DormandPrince { tolerance } | MethodSpec::DormandPrince853 { tolerance } => {
+            vec![format!("tolerance {}", short(*tolerance))]
+        }
         MethodSpec::ImplicitTrapezoid {
             tolerance,
             max_iterations,

@@ -101,6 +101,44 @@ fn staggered_factorization_option() {
     assert!(!e.is_empty());
 }
 
+/// The error-controlled Runge–Kutta methods take `tolerance` (default 1e-9), a positive
+/// number; `rk4` takes no option.
+#[test]
+fn runge_kutta_method_options() {
+    let body = "body b { mass 1 kg; inertia sphere(radius: 1 cm) }";
+    let with = |m: &str| {
+        model(body).replace(
+            "simulate { duration 1 s; step 1 ms }",
+            &format!("simulate {{ duration 1 s; step 1 ms; method {m} }}"),
+        )
+    };
+    assert_eq!(scene(&with("rk4")).simulate.method, MethodSpec::RungeKutta4);
+    assert_eq!(
+        scene(&with("dopri5")).simulate.method,
+        MethodSpec::DormandPrince { tolerance: 1e-9 }
+    );
+    assert_eq!(
+        scene(&with("dop853")).simulate.method,
+        MethodSpec::DormandPrince853 { tolerance: 1e-9 }
+    );
+    assert_eq!(
+        scene(&with("dop853 { tolerance 1e-12 }")).simulate.method,
+        MethodSpec::DormandPrince853 { tolerance: 1e-12 }
+    );
+    assert_eq!(
+        scene(&with("dopri5 { tolerance 1e-7 }")).simulate.method,
+        MethodSpec::DormandPrince { tolerance: 1e-7 }
+    );
+    for bad in [
+        "dop853 { tolerance 0 }",
+        "dop853 { tolerance -1e-9 }",
+        "dop853 { max_iterations 3 }",
+        "rk4 { tolerance 1e-9 }",
+    ] {
+        assert!(!errors(&with(bad)).is_empty(), "{bad} accepted");
+    }
+}
+
 #[test]
 fn output_format_and_partitions() {
     use mbdc_runtime::scene::OutputFormat;

@@ -1,7 +1,8 @@
 //! `natural_partitioning` allocates nothing per step (counting global allocator, per
 //! thread): on a scene with a closed loop (cut joint, Newton + PCG path), a tree of
 //! revolute, universal and prismatic joints and a free body; and on a pure tree, with
-//! `rk4` and `dopri5` too.
+//! `rk4`, `dopri5` and `dop853` too (the error-controlled ones also with outputs inside
+//! their steps, so through their dense output).
 
 use mbdc_runtime::integrators::{make, State};
 use mbdc_runtime::interp::{Interp, IDENTITY};
@@ -174,10 +175,16 @@ fn steps_allocate(with_loop: bool) -> usize {
 }
 
 fn steps_allocate_with(name: &str, with_loop: bool) -> usize {
+    steps_allocate_at(name, with_loop, 1e-3).0
+}
+
+/// Allocations in 200 steps of `h` of the method `name` (default options), and its
+/// `dense_outputs` statistic (0 without).
+fn steps_allocate_at(name: &str, with_loop: bool, h: f64) -> (usize, f64) {
     let sys = Interp::new(&scene(with_loop)).expect("scene");
     let start = State::initial(&sys);
     let method = MethodSpec::default_for(name).unwrap();
-    let mut it = make(&method, &sys, 1e-3, &start).expect("start");
+    let mut it = make(&method, &sys, h, &start).expect("start");
     let mut st = State::initial(&sys);
     for _ in 0..3 {
         it.step(&sys).unwrap();
@@ -191,7 +198,12 @@ fn steps_allocate_with(name: &str, with_loop: bool) -> usize {
     // the scene moved and stayed assembled
     assert!(st.pose[0].r.z < -1e-3, "bar 1 fell: {:?}", st.pose[0].r);
     assert_eq!(sys.layout().bodies(), 8);
-    n
+    let dense = it
+        .stats()
+        .into_iter()
+        .find(|(k, _)| *k == "dense_outputs")
+        .map_or(0.0, |(_, v)| v);
+    (n, dense)
 }
 
 #[test]
@@ -205,10 +217,17 @@ fn steps_of_a_tree_do_not_allocate() {
 }
 
 /// The Runge–Kutta methods on the same tree stages (the tree solve per stage, the
-/// projection, the controller and the dense output) allocate nothing either.
+/// projection, the controller and the dense output) allocate nothing either: at a 1 ms
+/// output step, and for the error-controlled methods at 20 ms, where the outputs fall
+/// inside their internal steps (dop853's three extra dense-output stages included).
 #[test]
 fn runge_kutta_steps_of_a_tree_do_not_allocate() {
-    for name in ["rk4", "dopri5"] {
+    for name in ["rk4", "dopri5", "dop853"] {
         assert_eq!(steps_allocate_with(name, false), 0, "{name}");
+    }
+    for name in ["dopri5", "dop853"] {
+        let (n, dense) = steps_allocate_at(name, false, 0.02);
+        assert!(dense > 0.0, "{name}: no output inside a step");
+        assert_eq!(n, 0, "{name} with dense output");
     }
 }

@@ -325,6 +325,7 @@ const VARIANTS: &[&str] = &[
     "NaturalPartitioning",
     "RungeKutta4",
     "DormandPrince",
+    "DormandPrince853",
     "StateTime",
     "Exact",
     "Midpoint",
@@ -776,7 +777,9 @@ fn each_float(s: &mut Scene, f: &mut dyn FnMut(&mut f64)) {
             }
             f(tolerance);
         }
-        MethodSpec::DormandPrince { tolerance } => f(tolerance),
+        MethodSpec::DormandPrince { tolerance } | MethodSpec::DormandPrince853 { tolerance } => {
+            f(tolerance)
+        }
         MethodSpec::CoordinatePartitioning
         | MethodSpec::RungeKutta4
         | MethodSpec::StateTime { .. } => {}

@@ -52,7 +52,7 @@ pub(crate) fn method_options(name: &str) -> &'static [&'static str] {
         "penalty" => &["epsilon"],
         "implicit_trapezoid" => &["tolerance", "max_iterations"],
         "natural_partitioning" => &["epsilon", "tolerance", "max_iterations"],
-        "dopri5" => &["tolerance"],
+        "dopri5" | "dop853" => &["tolerance"],
         "state_time" => &["steps_per_element"],
         _ => &[],
     }
@@ -509,7 +509,8 @@ impl<'a> Lowerer<'a> {
             }
             (MethodSpec::ImplicitTrapezoid { tolerance, .. }, "tolerance")
             | (MethodSpec::NaturalPartitioning { tolerance, .. }, "tolerance")
-            | (MethodSpec::DormandPrince { tolerance }, "tolerance") => {
+            | (MethodSpec::DormandPrince { tolerance }, "tolerance")
+            | (MethodSpec::DormandPrince853 { tolerance }, "tolerance") => {
                 *tolerance = self.positive(v, sc, Dim::NONE, "a tolerance")?
             }
             (MethodSpec::ImplicitTrapezoid { max_iterations, .. }, "max_iterations") => {

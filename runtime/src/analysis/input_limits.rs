@@ -114,7 +114,9 @@ pub fn check_method(method: &MethodSpec) -> Result<(), String> {
             positive("tolerance", *tolerance)
         }
         MethodSpec::RungeKutta4 => Ok(()),
-        MethodSpec::DormandPrince { tolerance } => positive("tolerance", *tolerance),
+        MethodSpec::DormandPrince { tolerance } | MethodSpec::DormandPrince853 { tolerance } => {
+            positive("tolerance", *tolerance)
+        }
         MethodSpec::StateTime { steps_per_element } => {
             if *steps_per_element == 0 {
                 Err(format!("{name}: steps_per_element must be at least 1"))

@@ -113,7 +113,7 @@ impl Estimate {
 }
 
 /// Whether a method integrates the coordinates explicitly with the run's step (and so has a
-/// stability limit on it). `dopri5` is explicit but chooses its own internal steps under
+/// stability limit on it). `dopri5` and `dop853` are explicit but choose their own internal steps under
 /// its error control, as short as the fastest motion needs, between output steps: the
 /// run's step is only its output interval.
 pub fn is_explicit(method: &crate::contract::scene::MethodSpec) -> bool {
@@ -122,6 +122,7 @@ pub fn is_explicit(method: &crate::contract::scene::MethodSpec) -> bool {
         crate::contract::scene::MethodSpec::ImplicitTrapezoid { .. }
             | crate::contract::scene::MethodSpec::StateTime { .. }
             | crate::contract::scene::MethodSpec::DormandPrince { .. }
+            | crate::contract::scene::MethodSpec::DormandPrince853 { .. }
     )
 }
 

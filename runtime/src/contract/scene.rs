@@ -1077,6 +1077,14 @@ pub enum MethodSpec {
         /// Absolute and relative tolerance of the embedded error estimate.
         tolerance: f64,
     },
+    /// Dormand–Prince 8(5,3) (Hairer's DOP853) on the tree coordinates: eighth order,
+    /// error-controlled by its combined fifth- and third-order estimates, with seventh-order
+    /// dense output at the output times; `step` is the first and the largest internal step
+    /// (tree joints only).
+    DormandPrince853 {
+        /// Absolute and relative tolerance of the combined error estimate.
+        tolerance: f64,
+    },
     /// State-time formulation (time elements, Newton on the trajectory).
     StateTime {
         /// Time steps per time element.
@@ -1096,12 +1104,13 @@ impl MethodSpec {
             MethodSpec::NaturalPartitioning { .. } => "natural_partitioning",
             MethodSpec::RungeKutta4 => "rk4",
             MethodSpec::DormandPrince { .. } => "dopri5",
+            MethodSpec::DormandPrince853 { .. } => "dop853",
             MethodSpec::StateTime { .. } => "state_time",
         }
     }
 
     /// All method names, in documentation order.
-    pub const NAMES: [&'static str; 9] = [
+    pub const NAMES: [&'static str; 10] = [
         "staggered",
         "baumgarte",
         "penalty",
@@ -1110,6 +1119,7 @@ impl MethodSpec {
         "natural_partitioning",
         "rk4",
         "dopri5",
+        "dop853",
         "state_time",
     ];
 
@@ -1134,6 +1144,7 @@ impl MethodSpec {
             },
             "rk4" => MethodSpec::RungeKutta4,
             "dopri5" => MethodSpec::DormandPrince { tolerance: 1e-9 },
+            "dop853" => MethodSpec::DormandPrince853 { tolerance: 1e-9 },
             "state_time" => MethodSpec::StateTime {
                 steps_per_element: 4,
             },

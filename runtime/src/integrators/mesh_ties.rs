@@ -92,7 +92,9 @@ pub fn refusal(meshes: &MeshLayout, layout: &Layout, method: &MethodSpec) -> Opt
     let t = meshes.ties.first()?;
     let body = layout.body_names.get(t.body).map_or("?", String::as_str);
     let why = match method {
-        MethodSpec::RungeKutta4 | MethodSpec::DormandPrince { .. } => format!(
+        MethodSpec::RungeKutta4
+        | MethodSpec::DormandPrince { .. }
+        | MethodSpec::DormandPrince853 { .. } => format!(
             "{} evaluates the bodies' forces at stages inside its step, but the tie's forces come from the mesh once per step",
             method.name()
         ),

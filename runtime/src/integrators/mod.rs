@@ -7,7 +7,7 @@
 //! | `implicit_trapezoid` | [`trapezoid`] | simultaneous trapezoidal rule with Newton, notes A §1.2 |
 //! | `staggered`, `baumgarte`, `penalty` | [`staggered`] | two-stage CINT with three constraint-force modules, notes A §1.4–1.9, C §3 |
 //! | `natural_partitioning` | [`natural`] | tree null space, Schur-complement PCG, cut joints by staggered stabilization, notes C §1 |
-//! | `rk4`, `dopri5` | [`runge_kutta`] | explicit Runge–Kutta on the tree coordinates, error control and dense output (Hairer–Nørsett–Wanner I §II) |
+//! | `rk4`, `dopri5`, `dop853` | [`runge_kutta`] | explicit Runge–Kutta on the tree coordinates, error control and dense output (Hairer–Nørsett–Wanner I §II) |
 //! | `state_time` | [`state_time`] | time elements, Newton on a window of the trajectory, notes F |
 //!
 //! Flexible beams are bodies of the system with element forces ([`beam_forces`]); with
@@ -332,6 +332,13 @@ fn rigid<T: System>(
         M::DormandPrince { tolerance } => Rigid::RungeKutta(runge_kutta::RungeKutta::new(
             sys,
             &runge_kutta::tableau::DOPRI5,
+            h,
+            Some(*tolerance),
+            start,
+        )?),
+        M::DormandPrince853 { tolerance } => Rigid::RungeKutta(runge_kutta::RungeKutta::new(
+            sys,
+            &runge_kutta::tableau::DOP853,
             h,
             Some(*tolerance),
             start,

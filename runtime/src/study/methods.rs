@@ -26,7 +26,7 @@ pub struct MethodEntry {
 
 /// The theoretical order of a method (notes A §1): the constraint-stabilized methods are
 /// second order (penalty's constraint error is O(h²) with its default ε = h²·max diag K);
-/// `rk4` fourth; `dopri5` none in h (its error follows its tolerance).
+/// `rk4` fourth; `dopri5` and `dop853` none in h (their error follows their tolerance).
 pub fn theoretical_order(name: &str) -> Option<f64> {
     match name {
         "staggered"
@@ -35,7 +35,8 @@ pub fn theoretical_order(name: &str) -> Option<f64> {
         | "coordinate_partitioning"
         | "implicit_trapezoid"
         | "natural_partitioning" => Some(2.0),
-        // at a fixed step; dopri5 runs to its tolerance, the step is only its largest
+        // at a fixed step; dopri5 and dop853 run to their tolerance, the step is only their
+        // largest internal step
         "rk4" => Some(4.0),
         // quadratic time elements by Galerkin (notes F §1.10): O(h³) between the nodes
         "state_time" => Some(3.0),
@@ -87,7 +88,9 @@ pub fn describe_options(spec: &MethodSpec) -> String {
             s
         }
         MethodSpec::RungeKutta4 => String::new(),
-        MethodSpec::DormandPrince { tolerance } => format!("tolerance {tolerance:e}"),
+        MethodSpec::DormandPrince { tolerance } | MethodSpec::DormandPrince853 { tolerance } => {
+            format!("tolerance {tolerance:e}")
+        }
         MethodSpec::StateTime { steps_per_element } => {
             format!("{steps_per_element} steps per time element")
         }

@@ -1,5 +1,6 @@
 //! Explicit Runge–Kutta methods on the tree coordinates of natural partitioning: `rk4`
-//! (classical, fixed step) and `dopri5` (Dormand–Prince 5(4), error-controlled, with
+//! (classical, fixed step), `dopri5` (Dormand–Prince 5(4), error-controlled, with
+//! dense output) and `dop853` (Dormand–Prince 8(5,3), error-controlled, with seventh-order
 //! dense output).
 //!
 //! ## The differential equation
@@ -32,20 +33,27 @@
 //! *Geometric Numerical Integration*, §IV.4, Theorem 4.2). The joints then hold to
 //! round-off at every step and every output frame, without drift.
 //!
-//! The FSAL stage of `dopri5` is evaluated at the step's unprojected result: the next step
-//! starts from the projected state with that derivative, a difference of the projection's
-//! size (`O(h^{p+1})`, times h), which keeps the order and saves one evaluation per step.
+//! The FSAL stage of `dopri5` and `dop853` is evaluated at the step's unprojected result:
+//! the next step starts from the projected state with that derivative, a difference of the
+//! projection's size (`O(h^{p+1})`, times h), which keeps the order and saves one evaluation
+//! per step. `dopri5` evaluates it with the other stages of every attempt; `dop853` only once
+//! the step is accepted (its result and error estimates do not use it), as Hairer's code.
 //!
 //! ## Error control and output
 //!
 //! `dopri5` ([`controller`]): the embedded fourth-order estimate in the weighted RMS norm
 //! with absolute and relative tolerance `tol`, the PI controller of Gustafsson with
 //! Hairer's `DOPRI5` constants, the user's `step` as the first and the largest internal
-//! step. Each call of [`Integrator::step`] advances the reported time by exactly `step`:
-//! the internal steps run past it and the output state there comes from the continuous
-//! extension ([`dense`]), projected onto the manifold like a step's result (the internal
-//! sequence goes on from its own steps, not from the output). `rk4` takes one step of
-//! `step` per call.
+//! step. `dop853`: the fifth- and third-order estimates combined as Hairer's `DOP853`
+//! ([`controller::dop853_combine`], an `h⁸` estimate) in the same norm, and the controller
+//! with Hairer's `DOP853` constants (exponent 1/8, β = 0). Each call of
+//! [`Integrator::step`] advances the reported time by exactly `step`: the internal steps
+//! run past it and the output state there comes from the continuous extension ([`dense`]),
+//! projected onto the manifold like a step's result (the internal sequence goes on from its
+//! own steps, not from the output). An internal step is never longer than `step`, so each
+//! output falls in its own step; `dop853`'s extension needs three more evaluations, made
+//! only for a step with an output inside it (none when the step ends on the output time).
+//! `rk4` takes one step of `step` per call.
 //!
 //! Closed loops (cut joints, drivers, locks and every other row outside the spanning tree)
 //! are refused at the start for now, naming the joint.
@@ -62,7 +70,7 @@ use crate::contract::math::quat_rate;
 use crate::contract::persist::{self, StateVisitor};
 use crate::contract::system::{Pose, System, Twist};
 use controller::Controller;
-use tableau::Tableau;
+use tableau::{Dense, ErrorEstimate, Fsal, Tableau};
 
 /// Numbers per body in the state vector: position, Euler parameters, velocity, ω.
 const PER_BODY: usize = 13;
@@ -89,14 +97,22 @@ pub struct RungeKutta {
     h_last: f64,
     y_new: Vec<f64>,
     y_stage: Vec<f64>,
+    /// The error estimate of the last attempt (for `dop853` its fifth-order estimate, then
+    /// the combined one).
     err: Vec<f64>,
+    /// `dop853`'s third-order error estimate (empty for the other methods).
+    err3: Vec<f64>,
     /// Stage derivatives.
     k: Vec<Vec<f64>>,
+    /// The stage derivatives of the continuous extension beyond the step's (three for
+    /// `dop853`, none otherwise), made in the constructor, filled only for an output.
+    k_extra: Vec<Vec<f64>>,
     /// `k[0]` holds `f(t, y)`.
     k0_valid: bool,
     /// The last stage of the accepted step is the derivative at its result (FSAL).
     fsal_pending: bool,
-    // body-level buffers
+    // body-level buffers: the projected result of the last accepted step right after it,
+    // scratch for the stage evaluations otherwise
     pose: Vec<Pose>,
     vel: Vec<Twist>,
     acc: Vec<Twist>,
@@ -111,6 +127,7 @@ pub struct RungeKutta {
     steps: u64,
     rejected: u64,
     evaluations: u64,
+    dense_outputs: u64,
     error_norm_max: f64,
     local_error_max: f64,
     step_min: f64,
@@ -169,6 +186,27 @@ fn rhs<S: System>(
     Ok(())
 }
 
+/// `out = y + h Σ_j w_j k_j` (zero weights skipped).
+fn combine(y: &[f64], k: &[Vec<f64>], w: &[f64], h: f64, out: &mut [f64]) {
+    combine_increment(k, w, h, out);
+    for (o, y) in out.iter_mut().zip(y) {
+        *o += y;
+    }
+}
+
+/// `out = h Σ_j w_j k_j` (zero weights skipped).
+fn combine_increment(k: &[Vec<f64>], w: &[f64], h: f64, out: &mut [f64]) {
+    for (m, o) in out.iter_mut().enumerate() {
+        let mut acc = 0.0;
+        for (j, wj) in w.iter().enumerate() {
+            if *wj != 0.0 {
+                acc += wj * k[j][m];
+            }
+        }
+        *o = h * acc;
+    }
+}
+
 impl RungeKutta {
     /// The method `tab` on `sys` with the reported step `h`, starting from `start`.
     /// `tolerance`: error control with that tolerance (the tableau must have an embedded
@@ -190,9 +228,10 @@ impl RungeKutta {
                 tab.name, j.name, j.kind, tab.name
             )));
         }
-        if tolerance.is_some() && tab.e.is_empty() {
+        let control = tab.error.control();
+        if tolerance.is_some() && (control.is_none() || tab.dense == Dense::None) {
             return Err(StartError::Invalid(format!(
-                "{} has no embedded error estimate: it runs with a fixed step",
+                "{} has no embedded error estimate or no dense output: it runs with a fixed step",
                 tab.name
             )));
         }
@@ -207,7 +246,18 @@ impl RungeKutta {
         nat.tree_project(sys, &mut pose, &mut vel);
         let mut y = vec![0.0; n];
         pack(&pose, &vel, &mut y);
-        let control = tolerance.map(|tol| (tol, Controller::new(tab.embedded_order)));
+        let control = match (tolerance, control) {
+            (Some(tol), Some(k)) => Some((tol, Controller::new(k))),
+            _ => None,
+        };
+        let extra = match tab.dense {
+            Dense::Dop853 => 3,
+            Dense::None | Dense::Dopri5 => 0,
+        };
+        let err3 = match tab.error {
+            ErrorEstimate::Dop853 { .. } => n,
+            ErrorEstimate::None | ErrorEstimate::Embedded { .. } => 0,
+        };
         Ok(RungeKutta {
             tab,
             nat,
@@ -220,7 +270,9 @@ impl RungeKutta {
             y_new: vec![0.0; n],
             y_stage: vec![0.0; n],
             err: vec![0.0; n],
+            err3: vec![0.0; err3],
             k: vec![vec![0.0; n]; tab.stages()],
+            k_extra: vec![vec![0.0; n]; extra],
             k0_valid: false,
             fsal_pending: false,
             out_pose: pose.clone(),
@@ -236,6 +288,7 @@ impl RungeKutta {
             steps: 0,
             rejected: 0,
             evaluations: 0,
+            dense_outputs: 0,
             error_norm_max: 0.0,
             local_error_max: 0.0,
             step_min: f64::INFINITY,
@@ -243,8 +296,8 @@ impl RungeKutta {
         })
     }
 
-    /// One attempt of size `hs` from `(t, y)` into `y_new` (and the error estimate into
-    /// `err` for an embedded pair).
+    /// One attempt of size `hs` from `(t, y)` into `y_new` (and the error estimates into
+    /// `err`, `err3` for an embedded method).
     fn attempt<S: System>(&mut self, sys: &S, hs: f64) -> Result<(), StepError> {
         let tab = self.tab;
         let s = tab.stages();
@@ -267,7 +320,10 @@ impl RungeKutta {
             self.k0_valid = true;
             self.fsal_pending = false;
         }
-        for i in 1..s {
+        // the stages the result and the error estimates use (not a FSAL stage evaluated on
+        // acceptance)
+        let used = tab.step_stages();
+        for i in 1..used {
             let row = tab.a[i];
             for (m, ys) in self.y_stage.iter_mut().enumerate() {
                 let mut acc = 0.0;
@@ -291,34 +347,57 @@ impl RungeKutta {
             )?;
             self.evaluations += 1;
         }
-        if tab.fsal {
+        if tab.fsal == Fsal::InStep {
             // the last stage is the result
             self.y_new.copy_from_slice(&self.y_stage);
         } else {
-            for (m, yn) in self.y_new.iter_mut().enumerate() {
-                let mut acc = 0.0;
-                for (j, b) in tab.b.iter().enumerate() {
-                    acc += b * self.k[j][m];
-                }
-                *yn = self.y[m] + hs * acc;
-            }
+            combine(
+                &self.y,
+                &self.k[..used],
+                &tab.b[..used],
+                hs,
+                &mut self.y_new,
+            );
         }
-        if !tab.e.is_empty() {
-            for (m, e) in self.err.iter_mut().enumerate() {
-                let mut acc = 0.0;
-                for (j, ej) in tab.e.iter().enumerate() {
-                    if *ej != 0.0 {
-                        acc += ej * self.k[j][m];
-                    }
-                }
-                *e = hs * acc;
+        match tab.error {
+            ErrorEstimate::None => {}
+            ErrorEstimate::Embedded { e, .. } => {
+                combine_increment(&self.k[..used], &e[..used], hs, &mut self.err)
+            }
+            ErrorEstimate::Dop853 { e5, e3, .. } => {
+                combine_increment(&self.k[..used], &e5[..used], hs, &mut self.err);
+                combine_increment(&self.k[..used], &e3[..used], hs, &mut self.err3);
             }
         }
         Ok(())
     }
 
-    /// Take the attempt of size `hs`: `y ← y_new` projected onto the manifold.
-    fn accept<S: System>(&mut self, sys: &S, hs: f64) {
+    /// The error norm of the last attempt with tolerance `tol` (`≤ 1` accepts it); for
+    /// `dop853` it first combines the two estimates into `err`.
+    fn error_norm(&mut self, tol: f64) -> f64 {
+        if let ErrorEstimate::Dop853 { .. } = self.tab.error {
+            controller::dop853_combine(&mut self.err, &self.err3, &self.y, &self.y_new, tol);
+        }
+        controller::error_norm(&self.err, &self.y, &self.y_new, tol)
+    }
+
+    /// Take the attempt of size `hs`: `y ← y_new` projected onto the manifold (for a FSAL
+    /// stage evaluated on acceptance, the derivative at the unprojected result first).
+    fn accept<S: System>(&mut self, sys: &S, hs: f64) -> Result<(), StepError> {
+        let s = self.tab.stages();
+        if self.tab.fsal == Fsal::OnAccept {
+            rhs(
+                &mut self.nat,
+                sys,
+                self.t + hs,
+                &self.y_new,
+                &mut self.pose,
+                &mut self.vel,
+                &mut self.acc,
+                &mut self.k[s - 1],
+            )?;
+            self.evaluations += 1;
+        }
         std::mem::swap(&mut self.y_old, &mut self.y);
         std::mem::swap(&mut self.y, &mut self.y_new);
         unpack(&self.y, &mut self.pose, &mut self.vel);
@@ -327,33 +406,71 @@ impl RungeKutta {
         self.t += hs;
         self.h_last = hs;
         self.k0_valid = false;
-        self.fsal_pending = self.tab.fsal;
+        self.fsal_pending = self.tab.fsal != Fsal::No;
         self.steps += 1;
         self.step_min = self.step_min.min(hs);
         self.step_max = self.step_max.max(hs);
+        Ok(())
     }
 
     /// The reported state from `y` (already projected) or, at `θ` inside the last step,
-    /// from the continuous extension, projected.
-    fn output<S: System>(&mut self, sys: &S, theta: Option<f64>) {
-        match theta {
-            None => {
-                self.out_pose.copy_from_slice(&self.pose);
-                self.out_vel.copy_from_slice(&self.vel);
-            }
-            Some(th) => {
-                dense::dopri5(
+    /// from the continuous extension, projected. `dop853`'s extension evaluates its three
+    /// extra stages here, from the step's start `y_old`.
+    fn output<S: System>(&mut self, sys: &S, theta: Option<f64>) -> Result<(), StepError> {
+        let Some(th) = theta else {
+            self.out_pose.copy_from_slice(&self.pose);
+            self.out_vel.copy_from_slice(&self.vel);
+            return Ok(());
+        };
+        let h = self.h_last;
+        match self.tab.dense {
+            Dense::Dopri5 => dense::dopri5(&self.y_old, &self.y, &self.k, h, th, &mut self.y_stage),
+            Dense::Dop853 => {
+                let t_old = self.t - h;
+                for r in 0..tableau::DOP853_EXTRA_C.len() {
+                    let (done, rest) = self.k_extra.split_at_mut(r);
+                    dense::dop853_extra_state(&self.y_old, &self.k, done, h, r, &mut self.y_stage);
+                    rhs(
+                        &mut self.nat,
+                        sys,
+                        t_old + tableau::DOP853_EXTRA_C[r] * h,
+                        &self.y_stage,
+                        &mut self.pose,
+                        &mut self.vel,
+                        &mut self.acc,
+                        &mut rest[0],
+                    )?;
+                    self.evaluations += 1;
+                }
+                dense::dop853(
                     &self.y_old,
                     &self.y,
                     &self.k,
-                    self.h_last,
+                    &self.k_extra,
+                    h,
                     th,
                     &mut self.y_stage,
                 );
-                unpack(&self.y_stage, &mut self.out_pose, &mut self.out_vel);
-                self.nat
-                    .tree_project(sys, &mut self.out_pose, &mut self.out_vel);
             }
+            // the constructor refuses error control without a continuous extension, and a
+            // fixed step ends on the output time
+            Dense::None => unreachable!("an output inside a step of a method without dense output"),
+        }
+        self.dense_outputs += 1;
+        unpack(&self.y_stage, &mut self.out_pose, &mut self.out_vel);
+        self.nat
+            .tree_project(sys, &mut self.out_pose, &mut self.out_vel);
+        Ok(())
+    }
+
+    /// What stopped the step-size control, in words (`shrank`: the step went to round-off;
+    /// otherwise too many internal steps for one output step).
+    fn control_failure(&self, shrank: bool) -> &'static str {
+        match (self.tab.name, shrank) {
+            ("dop853", false) => "the step-size control of dop853 (more than 10 000 internal steps for one output step: the motion is too fast or not smooth for this tolerance)",
+            ("dop853", true) => "the step-size control of dop853 (the step shrank to round-off: the motion is too fast or not smooth for this tolerance)",
+            (_, false) => "the step-size control of dopri5 (more than 10 000 internal steps for one output step: the motion is too fast or not smooth for this tolerance)",
+            (_, true) => "the step-size control of dopri5 (the step shrank to round-off: the motion is too fast or not smooth for this tolerance)",
         }
     }
 
@@ -364,7 +481,7 @@ impl RungeKutta {
         loop {
             if attempts >= MAX_ATTEMPTS {
                 return Err(StepError::NoConvergence {
-                    what: "the step-size control of dopri5 (more than 10 000 internal steps for one output step: the motion is too fast or not smooth for this tolerance)",
+                    what: self.control_failure(false),
                     iterations: attempts.min(u32::MAX as u64) as u32,
                     residual: self.error_norm_max,
                     row: None,
@@ -372,19 +489,24 @@ impl RungeKutta {
             }
             let hs = self.h_next.min(self.h);
             self.attempt(sys, hs)?;
-            let (tol, ctl) = self.control.as_mut().expect("controlled method");
-            let norm = controller::error_norm(&self.err, &self.y, &self.y_new, *tol);
-            let (ok, next) = ctl.next(hs, norm);
+            let tol = self.control.as_ref().expect("controlled method").0;
+            let norm = self.error_norm(tol);
+            let (ok, next) = self
+                .control
+                .as_mut()
+                .expect("controlled method")
+                .1
+                .next(hs, norm);
             attempts += 1;
             if ok {
                 self.error_norm_max = self.error_norm_max.max(norm);
                 let local = self.err.iter().fold(0.0f64, |a, e| a.max(e.abs()));
                 self.local_error_max = self.local_error_max.max(local);
                 self.h_next = next;
-                self.accept(sys, hs);
+                self.accept(sys, hs)?;
                 if self.t >= target - eps {
                     let theta = (target - (self.t - hs)) / hs;
-                    self.output(sys, (self.t > target + eps).then_some(theta));
+                    self.output(sys, (self.t > target + eps).then_some(theta))?;
                     return Ok(attempts.min(u32::MAX as u64) as u32);
                 }
             } else {
@@ -393,7 +515,7 @@ impl RungeKutta {
                 let floor = 1e-14 * self.t.abs().max(self.h);
                 if next.partial_cmp(&floor) != Some(std::cmp::Ordering::Greater) {
                     return Err(StepError::NoConvergence {
-                        what: "the step-size control of dopri5 (the step shrank to round-off: the motion is too fast or not smooth for this tolerance)",
+                        what: self.control_failure(true),
                         iterations: attempts.min(u32::MAX as u64) as u32,
                         residual: norm,
                         row: None,
@@ -424,8 +546,8 @@ impl<S: System> Integrator<S> for RungeKutta {
         } else {
             let hs = target - self.t;
             self.attempt(sys, hs)?;
-            self.accept(sys, hs);
-            self.output(sys, None);
+            self.accept(sys, hs)?;
+            self.output(sys, None)?;
             0
         };
         self.reported_steps += 1;
@@ -454,6 +576,7 @@ impl<S: System> Integrator<S> for RungeKutta {
         if let Some((tol, _)) = &self.control {
             v.push(("tolerance", *tol));
             v.push(("rejected_steps", self.rejected as f64));
+            v.push(("dense_outputs", self.dense_outputs as f64));
             v.push(("error_estimate_max", self.error_norm_max * tol));
             v.push(("local_error_max", self.local_error_max));
             v.push(("step_min", self.step_min));
@@ -492,6 +615,7 @@ impl<S: System> Integrator<S> for RungeKutta {
         persist::u64(v, "steps", &mut self.steps);
         persist::u64(v, "rejected", &mut self.rejected);
         persist::u64(v, "evaluations", &mut self.evaluations);
+        persist::u64(v, "dense_outputs", &mut self.dense_outputs);
         persist::f64(v, "error_norm_max", &mut self.error_norm_max);
         persist::f64(v, "local_error_max", &mut self.local_error_max);
         persist::f64(v, "step_min", &mut self.step_min);
