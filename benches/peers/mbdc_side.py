@@ -3,10 +3,11 @@ default, best-of-k CPU time per run, error against the sweep's own reference), a
 `mbdc run` whose final state is checked against the race's independent reference, so that
 the sweep's errors and the peers' errors measure the same thing.
 
-`dopri5` is error-controlled: a sweep's step is only its largest internal step and output
-interval, and its error follows its tolerance (the scene's, else 1e-9). Its work–precision
-series (`tolerance_series`) therefore varies the tolerance instead: per tolerance, a copy of
-the model whose `simulate` block asks for `method dopri5 { tolerance TOL }`, timed by a
+`dopri5` and `dop853` are error-controlled: a sweep's step is only their largest internal
+step and output interval, and their error follows their tolerance (the scene's, else 1e-9).
+Their work–precision series (`tolerance_series`) therefore vary the tolerance instead: per
+tolerance, a copy of the model whose `simulate` block asks for `method dopri5 { tolerance
+TOL }` (or `dop853`), timed by a
 one-run `mbdc sweep` (same CPU accounting as every other mbdc run) at the sweep's largest
 default step (20 per shortest period: the largest internal step and the output interval; a
 larger one is refused by the explicit methods' stability check), its error measured like
@@ -107,29 +108,30 @@ def with_method(text, method):
     return text[:m.start()] + f"simulate {{ method {method};{body}}}" + text[m.end():]
 
 
-def tolerance_series(mbdc, root, scene, out, ref, error, tolerances):
-    """`dopri5`'s (tolerance, CPU seconds per simulated second, error against `ref`) points:
-    see the module doc. `error(scene, poses, ref)` is the race's error measure."""
+def tolerance_series(mbdc, root, scene, out, ref, error, tolerances, method="dopri5"):
+    """An error-controlled `method`'s (`dopri5`, `dop853`) (tolerance, CPU seconds per
+    simulated second, error against `ref`) points: see the module doc. `error(scene, poses,
+    ref)` is the race's error measure."""
     text = (root / scene.model).read_text()
     pts = []
     for tol in tolerances:
         d = Path(out) / f"tol_{tol:.0e}"
         d.mkdir(parents=True, exist_ok=True)
         model = d / Path(scene.model).name
-        model.write_text(with_method(text, f"dopri5 {{ tolerance {tol:.0e} }}"))
+        model.write_text(with_method(text, f"{method} {{ tolerance {tol:.0e} }}"))
         try:
-            sw = sweep(mbdc, root, scene, d / "sweep", levels=1, methods=["dopri5"], model=model)
+            sw = sweep(mbdc, root, scene, d / "sweep", levels=1, methods=[method], model=model)
             run = sw["runs"][0]
             if run.get("status") != "ok":
-                print(f"    dopri5 tolerance {tol:.0e}: {run.get('status_text')}", flush=True)
+                print(f"    {method} tolerance {tol:.0e}: {run.get('status_text')}", flush=True)
                 continue
-            poses = final_poses(mbdc, root, scene, "dopri5", run["step_s"], d / "run",
+            poses = final_poses(mbdc, root, scene, method, run["step_s"], d / "run",
                                 model=model)
         except subprocess.CalledProcessError as e:
-            print(f"    dopri5 tolerance {tol:.0e}: mbdc failed ({e})", flush=True)
+            print(f"    {method} tolerance {tol:.0e}: mbdc failed ({e})", flush=True)
             continue
         err = error(scene, poses, ref)
         pts.append((tol, run["cpu_time_s"] / scene.duration, err))
-        print(f"    dopri5 tolerance {tol:.0e} (h = {run['step_s']:.3e}): "
+        print(f"    {method} tolerance {tol:.0e} (h = {run['step_s']:.3e}): "
               f"{run['cpu_time_s'] / scene.duration:.3e} s/s, error {err:.3e}", flush=True)
     return pts

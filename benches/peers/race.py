@@ -17,9 +17,10 @@ interpolation between the two runs that bracket it (`—` when no run reached it
 the peers' against the independent reference of `reference.py`; mbdc's are the sweep's
 against its own reference, and one mbdc run is also checked against the independent
 reference (the `check` column: both errors of that run, which must agree). The sweep runs
-`dopri5` at one tolerance over its steps (`mbdc dopri5 (step series)`); its work–precision
-series proper varies the tolerance (`--tolerances`, `mbdc dopri5 (tolerance series)`, errors
-against the independent reference; see `mbdc_side.py`).
+the error-controlled `dopri5` and `dop853` at one tolerance over their steps (`mbdc dopri5
+(step series)`); their work–precision series proper vary the tolerance (`--tolerances`,
+`mbdc dopri5 (tolerance series)`, `mbdc dop853 (tolerance series)`, errors against the
+independent reference; see `mbdc_side.py`).
 """
 
 import argparse
@@ -185,7 +186,7 @@ def main():
     ap.add_argument("--tables-only", action="store_true",
                     help="only rewrite race.md from the output folder's race.json")
     ap.add_argument("--tolerances", default="1e-3,1e-4,1e-5,1e-6,1e-7,1e-8,1e-9,1e-10,1e-11,1e-12",
-                    help="dopri5's tolerance series, comma-separated ('' to leave it out)")
+                    help="dopri5's and dop853's tolerance series, comma-separated ('' to leave it out)")
     a = ap.parse_args()
     root = HERE.parent.parent
     target = Path(os.environ.get("CARGO_TARGET_DIR") or root / "target")
@@ -221,14 +222,17 @@ def main():
                              levels=a.levels, skip=skip,
                              reference_method=a.reference_method)
         mine = mbdc_side.series(sw, scene)
+        controlled = [m for m in ("dopri5", "dop853") if m not in skip]
         for method, pts in mine.items():
-            # the sweep runs dopri5 at one tolerance (the scene's, else 1e-9) over its steps
-            entries[f"mbdc {method}" + (" (step series)" if method == "dopri5" else "")] = pts
+            # the sweep runs an error-controlled method at one tolerance (the scene's, else
+            # 1e-9) over its steps
+            entries[f"mbdc {method}" + (" (step series)" if method in controlled else "")] = pts
         tols = [float(t) for t in a.tolerances.split(",") if t]
-        if tols:
-            print("  mbdc dopri5, tolerance series", flush=True)
-            entries["mbdc dopri5 (tolerance series)"] = mbdc_side.tolerance_series(
-                mbdc, root, scene, out / f"dopri5_{scene.name}", ref, reference.error, tols)
+        for method in controlled if tols else []:
+            print(f"  mbdc {method}, tolerance series", flush=True)
+            entries[f"mbdc {method} (tolerance series)"] = mbdc_side.tolerance_series(
+                mbdc, root, scene, out / f"{method}_{scene.name}", ref, reference.error, tols,
+                method)
         # the check: the finest run of mbdc's method with the smallest error, against the
         # independent reference
         best_m, best = min(((m, min(p, key=lambda x: x[2])) for m, p in mine.items()),
