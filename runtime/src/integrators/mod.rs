@@ -293,6 +293,11 @@ fn rigid<T: System>(
     if !rigid {
         return Ok(None);
     }
+    let rk = |tab, tolerance| -> Result<Rigid, StartError> {
+        Ok(Rigid::RungeKutta(runge_kutta::RungeKutta::new(
+            sys, tab, h, tolerance, start,
+        )?))
+    };
     Ok(Some(match method {
         M::Staggered(o) => Rigid::TwoStage(staggered::TwoStage::staggered(sys, h, o, start)?),
         M::Baumgarte { alpha, beta } => Rigid::TwoStage(staggered::TwoStage::baumgarte(
@@ -322,27 +327,9 @@ fn rigid<T: System>(
             natural::Natural::new(sys, h, *epsilon, *tolerance, start)?
                 .with_pcg_limit(*max_iterations),
         ),
-        M::RungeKutta4 => Rigid::RungeKutta(runge_kutta::RungeKutta::new(
-            sys,
-            &runge_kutta::tableau::RK4,
-            h,
-            None,
-            start,
-        )?),
-        M::DormandPrince { tolerance } => Rigid::RungeKutta(runge_kutta::RungeKutta::new(
-            sys,
-            &runge_kutta::tableau::DOPRI5,
-            h,
-            Some(*tolerance),
-            start,
-        )?),
-        M::DormandPrince853 { tolerance } => Rigid::RungeKutta(runge_kutta::RungeKutta::new(
-            sys,
-            &runge_kutta::tableau::DOP853,
-            h,
-            Some(*tolerance),
-            start,
-        )?),
+        M::RungeKutta4 => rk(&runge_kutta::tableau::RK4, None)?,
+        M::DormandPrince { tolerance } => rk(&runge_kutta::tableau::DOPRI5, Some(*tolerance))?,
+        M::DormandPrince853 { tolerance } => rk(&runge_kutta::tableau::DOP853, Some(*tolerance))?,
         M::StateTime { .. } => return Err(StartError::Unsupported(method.name())),
     }))
 }
