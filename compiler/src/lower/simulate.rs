@@ -230,6 +230,7 @@ impl<'a> Lowerer<'a> {
             step,
             method,
             mesh_method,
+            mesh_solver: mbdc_runtime::scene::MeshSolver::default(),
             output,
         })
     }

@@ -763,8 +763,93 @@ pub struct Simulate {
     /// existed: the explicit central difference).
     #[serde(default)]
     pub mesh_method: MeshMethod,
+    /// The linear solver of the implicit mesh analyses (absent: the direct factorization).
+    #[serde(default, skip_serializing_if = "MeshSolver::is_direct")]
+    pub mesh_solver: MeshSolver,
     /// Output settings.
     pub output: OutputSpec,
+}
+
+/// The linear solver of the implicit mesh analyses (`simulate { solver NAME { ... } }`;
+/// docs/methods.md, "Meshes: FETI").
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum MeshSolver {
+    /// faer's sparse Cholesky of the assembled matrix, factored once.
+    #[default]
+    Direct,
+    /// Finite Element Tearing and Interconnecting (Farhat–Roux, shared/notes/E §2): the
+    /// meshes torn into subdomains, each factored on its own, glued by Lagrange multipliers
+    /// found by preconditioned conjugate projected gradients.
+    Feti(FetiOptions),
+}
+
+impl MeshSolver {
+    /// Whether it is the direct factorization (the default).
+    pub fn is_direct(&self) -> bool {
+        matches!(self, MeshSolver::Direct)
+    }
+
+    /// The name as written in `.mbd` files.
+    pub fn name(&self) -> &'static str {
+        match self {
+            MeshSolver::Direct => "direct",
+            MeshSolver::Feti(_) => "feti",
+        }
+    }
+}
+
+/// Options of `solver feti { ... }`.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct FetiOptions {
+    /// Number of subdomains (≥ 1; `subdomains P`).
+    pub subdomains: u32,
+    /// The interface preconditioner (`preconditioner dirichlet | lumped | none`).
+    pub preconditioner: FetiPreconditioner,
+    /// Stop when the projected interface residual `‖P r‖` has fallen by this factor from
+    /// its start (`tolerance`).
+    pub tolerance: f64,
+    /// Refuse a solve that has not converged after this many iterations
+    /// (`max_iterations`).
+    pub max_iterations: u32,
+}
+
+impl Default for FetiOptions {
+    fn default() -> Self {
+        FetiOptions {
+            subdomains: 4,
+            preconditioner: FetiPreconditioner::Dirichlet,
+            tolerance: 1e-10,
+            max_iterations: 1000,
+        }
+    }
+}
+
+/// The FETI interface preconditioner.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum FetiPreconditioner {
+    /// `Σ B̃ₛ Sₛ B̃ₛᵀ` with each subdomain's interface Schur complement (one more
+    /// factorization per subdomain, of its interior): iteration counts nearly independent
+    /// of the number of subdomains.
+    #[default]
+    Dirichlet,
+    /// `Σ B̃ₛ Kₛ B̃ₛᵀ` restricted to the interface (the papers' `Σ K_j^I`): no factorization,
+    /// cheaper per iteration, more iterations.
+    Lumped,
+    /// No preconditioner.
+    None,
+}
+
+impl FetiPreconditioner {
+    /// The name as written in `.mbd` files.
+    pub fn name(self) -> &'static str {
+        match self {
+            FetiPreconditioner::Dirichlet => "dirichlet",
+            FetiPreconditioner::Lumped => "lumped",
+            FetiPreconditioner::None => "none",
+        }
+    }
 }
 
 /// How the finite-element meshes of a scene are analysed (`simulate { mesh_method NAME }`;
@@ -809,6 +894,7 @@ impl Default for Simulate {
             step: 1e-3,
             method: MethodSpec::Staggered(StaggeredOptions::default()),
             mesh_method: MeshMethod::default(),
+            mesh_solver: MeshSolver::default(),
             output: OutputSpec::default(),
         }
     }
