@@ -78,7 +78,7 @@ pub mod study;
 
 pub use analysis::{
     beam_model, constrained_modes, coordinates, effects, input_limits, mesh_model, mesh_partition,
-    mesh_stiffness, step_limits, tie_model, topology,
+    mesh_stiffness, mesh_subdomains, step_limits, tie_model, topology,
 };
 pub use contract::{math, mesh_layout, mesh_plan, persist, scene, system};
 pub use driver::{assemble, checkpoint, energy, output, run_loop};

@@ -589,6 +589,59 @@ fn mesh_steps_do_not_allocate_with_any_assembly() {
     }
 }
 
+/// Steps of the implicit mesh analyses (Newmark and static) do not allocate on any thread,
+/// with the direct factorization and with FETI (its subdomain solves on the pool, the
+/// interface iterations, the coarse problem, the recovery, the residual check).
+#[test]
+fn implicit_mesh_steps_do_not_allocate_with_either_solver() {
+    use mbdc_runtime::integrators::mesh_implicit::MeshImplicit;
+    use mbdc_runtime::integrators::MeshState;
+    use mbdc_runtime::scene::{FetiOptions, MeshMethod, MeshSolver};
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(2)
+        .build()
+        .unwrap();
+    for method in [MeshMethod::Newmark, MeshMethod::Static] {
+        for solver in [
+            MeshSolver::Direct,
+            MeshSolver::Feti(FetiOptions {
+                subdomains: 4,
+                ..FetiOptions::default()
+            }),
+        ] {
+            let mut s = scene();
+            s.contacts.clear();
+            s.bodies.clear();
+            s.joints.clear();
+            s.forces.clear();
+            s.meshes.push(box_mesh(8, 2, 2));
+            s.simulate.mesh_method = method;
+            s.simulate.mesh_solver = solver;
+            let sys = Interp::new(&s).unwrap();
+            let l = sys.layout().meshes.clone();
+            let mut it = MeshImplicit::new(l, method, 1e-4, 0.0, &MeshState::default()).unwrap();
+            let mut st = MeshState::default();
+            pool.install(|| it.advance()).unwrap();
+            it.mesh_state(&mut st);
+            let ((), count) = pool_allocations(&pool, || {
+                for _ in 0..5 {
+                    it.advance().unwrap();
+                    it.mesh_state(&mut st);
+                }
+            });
+            assert_eq!(
+                count,
+                0,
+                "allocations in {} steps with {}",
+                method.name(),
+                solver.name()
+            );
+            assert_eq!(it.feti().is_some(), !solver.is_direct());
+            assert!(st.energy.strain > 0.0, "the load deforms the block");
+        }
+    }
+}
+
 /// Asking whether to stop, which the run loop does after every step (issue 22: SIGINT and
 /// SIGTERM end a run honestly), allocates nothing: with no signal and with one received.
 #[cfg(unix)]

@@ -84,13 +84,23 @@ pub fn bisect(mesh: &Mesh, parts: usize) -> Result<Partition, PartitionError> {
             c.map(|v| v / e.len().max(1) as f64)
         })
         .collect();
-    let mut element_part = vec![0u32; centroids.len()];
-    let mut ids: Vec<u32> = (0..centroids.len() as u32).collect();
-    split(&centroids, &mut ids, 0, parts, &mut element_part);
     Ok(Partition {
         parts,
-        element_part,
+        element_part: bisect_centroids(&centroids, parts),
     })
+}
+
+/// The part (`0..parts`) of every point of `centroids` by recursive coordinate bisection
+/// (see the module doc). `parts` must lie in `1..=centroids.len()` (checked by the
+/// callers, which know what to name in the error); outside it every point gets part 0.
+pub fn bisect_centroids(centroids: &[Vec3], parts: usize) -> Vec<u32> {
+    let mut element_part = vec![0u32; centroids.len()];
+    if parts == 0 || parts > centroids.len() {
+        return element_part;
+    }
+    let mut ids: Vec<u32> = (0..centroids.len() as u32).collect();
+    split(centroids, &mut ids, 0, parts, &mut element_part);
+    element_part
 }
 
 /// Give the elements `ids` the parts `first..first + parts`.

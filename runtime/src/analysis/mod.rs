@@ -10,7 +10,9 @@
 //!   partitions); [`mesh_stiffness`]: their assembled linear stiffness with the fixed and
 //!   prescribed dofs eliminated, for the implicit analyses (Newmark, static);
 //!   [`mesh_partition`]: a mesh split into subdomains (recursive coordinate bisection) and
-//!   the papers' partition metrics (`mbdc check --partition P`).
+//!   the papers' partition metrics (`mbdc check --partition P`); [`mesh_subdomains`]: the
+//!   meshes torn into subdomains for FETI (their stiffness, interface multipliers and
+//!   rigid-body modes).
 //! - [`tie_model`]: node sets of meshes tied to bodies — the bodies with their tied nodes'
 //!   inertia (reference point at the joint mass centre), the tied nodes as constrained,
 //!   massless mesh nodes.
@@ -36,6 +38,7 @@ pub mod input_limits;
 pub mod mesh_model;
 pub mod mesh_partition;
 pub mod mesh_stiffness;
+pub mod mesh_subdomains;
 pub mod step_limits;
 pub mod tie_model;
 pub mod topology;

@@ -6,7 +6,7 @@
 //! so are the plans of the other assembly strategies ([`super::mesh_plan`]).
 
 use super::mesh_plan::AssemblyPlan;
-use super::scene::{ElementKind, Fn1, Material, MeshFormulation, MeshMethod};
+use super::scene::{ElementKind, Fn1, Material, MeshFormulation, MeshMethod, MeshSolver};
 
 /// The meshes of a system (empty for a scene without meshes).
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -44,6 +44,8 @@ pub struct MeshLayout {
     pub assembly: AssemblyPlan,
     /// How the meshes are analysed (the scene's `simulate { mesh_method }`).
     pub method: MeshMethod,
+    /// The linear solver of the implicit analyses (the scene's `simulate { solver }`).
+    pub solver: MeshSolver,
 }
 
 impl MeshLayout {

@@ -30,11 +30,12 @@
 use std::sync::Arc;
 
 use super::mesh_dynamics::{MeshEnergy, MeshState};
+use super::mesh_feti::Feti;
 use super::{Integrator, State, StepError, StepInfo};
 use crate::analysis::mesh_model::{critical_step, elastic, element_x0, options};
 use crate::analysis::mesh_stiffness::{self, MeshStiffness};
 use crate::contract::mesh_layout::MeshLayout;
-use crate::contract::scene::MeshMethod;
+use crate::contract::scene::{MeshMethod, MeshSolver};
 use crate::contract::system::System;
 use crate::kernels::fn1;
 use crate::kernels::solid::{self, ElementResponse, MAX_NODES};
@@ -47,7 +48,7 @@ pub struct MeshImplicit {
     h: f64,
     t: f64,
     k: MeshStiffness,
-    chol: SparseCholesky,
+    solver: LinearSolve,
     /// The lumped mass of every free dof.
     mass_free: Vec<f64>,
     /// Displacement, velocity, acceleration, three per node.
@@ -61,18 +62,29 @@ pub struct MeshImplicit {
     f_prev: Vec<f64>,
     reaction: Vec<f64>,
     reaction_prev: Vec<f64>,
-    /// Free-size buffers: right-hand side / solution, the right-hand side kept, a product.
+    /// Free-size buffers: right-hand side / solution, the right-hand side kept, a product,
+    /// the effective right-hand side kept (FETI's residual check).
     rhs: Vec<f64>,
     b: Vec<f64>,
     tmp: Vec<f64>,
+    kept: Vec<f64>,
+    /// The diagonal `4/h² M` of Newmark's matrix (empty for static).
+    diag: Vec<f64>,
     /// Constrained-size buffer of `[K_cf K_cc] u`.
     rc: Vec<f64>,
     stress: Vec<[f64; 6]>,
     strain: Vec<[f64; 6]>,
     energy: MeshEnergy,
-    /// Largest relative static residual so far.
+    /// Largest relative residual so far: of every static solve, and of Newmark's FETI
+    /// solves.
     residual: f64,
     notice: Option<String>,
+}
+
+/// How the matrix is solved: factored whole, or torn into FETI subdomains.
+enum LinearSolve {
+    Direct(Box<SparseCholesky>),
+    Feti(Box<Feti>),
 }
 
 /// The mesh (its name) that holds flattened node `node`, and that mesh's first node.
@@ -154,9 +166,7 @@ impl MeshImplicit {
         let asm = &k.assembly;
         let nf = asm.free().len();
         let mass_free: Vec<f64> = asm.free().iter().map(|&g| l.mass[g as usize / 3]).collect();
-        let mut chol =
-            SparseCholesky::new(nf, asm.col_ptr(), asm.row_idx(), Definiteness::Positive)?;
-        chol.values_mut().copy_from_slice(&k.free);
+        let mut diag = Vec::new();
         if method == MeshMethod::Newmark {
             if let Some(j) = mass_free.iter().position(|&m| !(m.is_finite() && m > 0.0)) {
                 return Err(factor_error(
@@ -168,12 +178,36 @@ impl MeshImplicit {
                 .into());
             }
             let c = 4.0 / (h * h);
-            let vals = chol.values_mut();
-            for (j, m) in mass_free.iter().enumerate() {
-                vals[asm.diagonal(j)] += c * m;
-            }
+            diag = mass_free.iter().map(|m| c * m).collect();
         }
-        chol.factor().map_err(|e| factor_error(l, &k, e, method))?;
+        let mut notice = None;
+        let solver = match l.solver {
+            MeshSolver::Direct => {
+                let mut chol =
+                    SparseCholesky::new(nf, asm.col_ptr(), asm.row_idx(), Definiteness::Positive)?;
+                chol.values_mut().copy_from_slice(&k.free);
+                let vals = chol.values_mut();
+                for (j, d) in diag.iter().enumerate() {
+                    vals[asm.diagonal(j)] += d;
+                }
+                chol.factor().map_err(|e| factor_error(l, &k, e, method))?;
+                LinearSolve::Direct(Box::new(chol))
+            }
+            MeshSolver::Feti(opts) => {
+                let d = (!diag.is_empty()).then_some(&diag[..]);
+                let feti = Feti::new(l, asm, d, opts).map_err(super::StartError::Invalid)?;
+                let t = feti.tearing();
+                notice = Some(format!(
+                    "feti: {} subdomains ({} floating, {} rigid-body modes), {} interface multipliers, preconditioner {}",
+                    t.subdomains.len(),
+                    t.floating(),
+                    t.modes(),
+                    t.multipliers.len(),
+                    opts.preconditioner.name()
+                ));
+                LinearSolve::Feti(Box::new(feti))
+            }
+        };
         let n = 3 * l.nodes();
         let ne = l.elements();
         let (u, v) = if start.u.len() == l.nodes() && start.v.len() == l.nodes() {
@@ -184,7 +218,7 @@ impl MeshImplicit {
         } else {
             (vec![0.0; n], vec![0.0; n])
         };
-        let notice = match (method, critical_step(l)) {
+        let step_notice = match (method, critical_step(l)) {
             (MeshMethod::Newmark, Some(c)) if h * c.omega > 0.5 => Some(format!(
                 "newmark: the step {h:.3e} s is stable at any size, but it resolves only the modes of periods above about 20 steps ({:.3e} s; the period of a mode with ωh = 0.3 lengthens by 0.75 %, by (ωh)²/12 in general); the mesh's highest element frequency is {:.4e} rad/s (ωh = {:.2}), so its fast modes are integrated stably but not accurately",
                 20.0 * h,
@@ -193,12 +227,16 @@ impl MeshImplicit {
             )),
             _ => None,
         };
+        let notice = match (notice, step_notice) {
+            (Some(a), Some(b)) => Some(format!("{a}\n{b}")),
+            (a, b) => a.or(b),
+        };
         let nc = asm.constrained().len();
         let mut s = MeshImplicit {
             method,
             h,
             t: t0,
-            chol,
+            solver,
             mass_free,
             a: vec![0.0; n],
             u_prev: u.clone(),
@@ -211,6 +249,8 @@ impl MeshImplicit {
             rhs: vec![0.0; nf],
             b: vec![0.0; nf],
             tmp: vec![0.0; nf],
+            kept: vec![0.0; nf],
+            diag,
             rc: vec![0.0; nc],
             stress: vec![[0.0; 6]; ne],
             strain: vec![[0.0; 6]; ne],
@@ -227,7 +267,7 @@ impl MeshImplicit {
         s.loads(t0);
         s.prescribe(t0);
         match method {
-            MeshMethod::Static => s.solve_static(),
+            MeshMethod::Static => s.solve_static()?,
             _ => s.initial_acceleration(),
         }
         s.reactions();
@@ -288,11 +328,39 @@ impl MeshImplicit {
         asm.sub_coupling(&self.k.constrained, &self.u, &mut self.b);
     }
 
+    /// Solve the method's matrix for `self.rhs` in place. A FETI solve's relative residual
+    /// `‖A x − b‖/‖b‖` (against the assembled matrix) is recorded.
+    fn solve_rhs(&mut self) -> Result<(), StepError> {
+        match &mut self.solver {
+            LinearSolve::Direct(chol) => chol.solve_in_place(&mut self.rhs),
+            LinearSolve::Feti(feti) => {
+                self.kept.copy_from_slice(&self.rhs);
+                feti.solve_in_place(&mut self.rhs)?;
+                let asm = &self.k.assembly;
+                asm.mul_free(&self.k.free, &self.rhs, &mut self.tmp);
+                let (mut num, mut den) = (0.0, 0.0);
+                for j in 0..self.rhs.len() {
+                    let d = self.diag.get(j).copied().unwrap_or(0.0);
+                    let e = self.tmp[j] + d * self.rhs[j] - self.kept[j];
+                    num += e * e;
+                    den += self.kept[j] * self.kept[j];
+                }
+                let r = if den > 0.0 {
+                    (num / den).sqrt()
+                } else {
+                    num.sqrt()
+                };
+                self.residual = self.residual.max(r);
+            }
+        }
+        Ok(())
+    }
+
     /// Solve `K_ff u_f = f_f − K_fc u_c` and record the relative residual.
-    fn solve_static(&mut self) {
+    fn solve_static(&mut self) -> Result<(), StepError> {
         self.static_rhs();
         self.rhs.copy_from_slice(&self.b);
-        self.chol.solve_in_place(&mut self.rhs);
+        self.solve_rhs()?;
         let asm = &self.k.assembly;
         for (x, &g) in self.rhs.iter().zip(asm.free()) {
             self.u[g as usize] = *x;
@@ -309,6 +377,7 @@ impl MeshImplicit {
             num.sqrt()
         };
         self.residual = self.residual.max(r);
+        Ok(())
     }
 
     /// `a_f = M_f⁻¹ (f_f − K_ff u_f − K_fc u_c)`.
@@ -422,7 +491,7 @@ impl MeshImplicit {
         self.prescribe(t1);
         match self.method {
             MeshMethod::Static => {
-                self.solve_static();
+                self.solve_static()?;
                 self.reactions();
                 self.clapeyron();
             }
@@ -435,7 +504,8 @@ impl MeshImplicit {
                     self.rhs[j] = self.b[j]
                         + self.mass_free[j] * (c0 * self.u[g] + c1 * self.v[g] + self.a[g]);
                 }
-                self.chol.solve_in_place(&mut self.rhs);
+                self.solve_rhs()?;
+                let asm = &self.k.assembly;
                 for (j, &g) in asm.free().iter().enumerate() {
                     let g = g as usize;
                     let un = self.rhs[j];
@@ -459,15 +529,27 @@ impl MeshImplicit {
         self.elements()
     }
 
-    /// The largest relative residual `‖K u − f‖/‖f‖` of the static solves so far (0 for
-    /// Newmark).
+    /// The largest relative residual `‖A u − b‖/‖b‖` of the solves so far: every static
+    /// solve (`A = K`), and Newmark's FETI solves (`A = K + 4/h² M`); 0 for Newmark's
+    /// direct solves, exact to round-off.
     pub fn residual(&self) -> f64 {
         self.residual
     }
 
-    /// Stored entries of the factor `L`.
+    /// Stored entries of the factor `L` (of every subdomain's factors under FETI).
     pub fn factor_nnz(&self) -> usize {
-        self.chol.factor_nnz()
+        match &self.solver {
+            LinearSolve::Direct(c) => c.factor_nnz(),
+            LinearSolve::Feti(f) => f.factor_nnz(),
+        }
+    }
+
+    /// The FETI solver, when the scene asks for it.
+    pub fn feti(&self) -> Option<&Feti> {
+        match &self.solver {
+            LinearSolve::Feti(f) => Some(f),
+            LinearSolve::Direct(_) => None,
+        }
     }
 
     /// Copy the state at the current time into `out` (reusing its buffers).
@@ -510,10 +592,23 @@ impl<S: System> Integrator<S> for MeshImplicit {
     fn stats(&self) -> Vec<(&'static str, f64)> {
         let mut v = vec![
             ("stiffness_nonzeros", self.k.assembly.nnz_free() as f64),
-            ("factor_nonzeros", self.chol.factor_nnz() as f64),
+            ("factor_nonzeros", self.factor_nnz() as f64),
         ];
         if self.method == MeshMethod::Static {
             v.push(("static_residual", self.residual));
+        }
+        if let LinearSolve::Feti(f) = &self.solver {
+            let (t, st) = (f.tearing(), f.stats());
+            if self.method != MeshMethod::Static {
+                v.push(("solve_residual", self.residual));
+            }
+            v.extend([
+                ("feti_subdomains", t.subdomains.len() as f64),
+                ("feti_floating", t.floating() as f64),
+                ("feti_multipliers", t.multipliers.len() as f64),
+                ("feti_iterations_last", f64::from(st.iterations)),
+                ("feti_iterations_max", f64::from(st.max_iterations)),
+            ]);
         }
         v
     }

@@ -406,6 +406,7 @@ impl Interp {
         };
         let mut meshes = mesh_model::build(&scene.meshes).map_err(mesh_err)?;
         meshes.method = scene.simulate.mesh_method;
+        meshes.solver = scene.simulate.mesh_solver;
         // Bodies that carry tied mesh nodes become the bodies with those nodes' inertia.
         let composite = tie_model::apply(scene, &mut meshes).map_err(mesh_err)?;
         let scene = composite.as_ref().unwrap_or(scene);
