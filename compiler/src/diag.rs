@@ -239,9 +239,9 @@ pub mod codes {
     pub const RECURSIVE_COMPONENT: &str = "mbdc::recursive-component";
     /// Too many generated items, or nesting too deep.
     pub const LIMIT: &str = "mbdc::limit";
-    /// Unknown integration method.
+    /// Unknown integration method or mesh solver.
     pub const UNKNOWN_METHOD: &str = "mbdc::unknown-method";
-    /// Unknown integration method option.
+    /// Unknown option of an integration method or a mesh solver.
     pub const UNKNOWN_METHOD_OPTION: &str = "mbdc::unknown-method-option";
     /// A command-line override is malformed or names no parameter.
     pub const OVERRIDE: &str = "mbdc::override";

@@ -4,7 +4,7 @@ use std::fmt;
 
 use mbdc_runtime::scene::{
     BodyRef, ElementKind, ForceKind, HourglassControl, MeshCondition, MeshFormulation,
-    MeshIntegration, MeshKinematics, MethodSpec, ParamValue, Scene, Vec3,
+    MeshIntegration, MeshKinematics, MeshSolver, MethodSpec, ParamValue, Scene, Vec3,
 };
 use serde::Serialize;
 
@@ -221,6 +221,22 @@ pub fn method_text(m: &MethodSpec) -> String {
     }
 }
 
+/// The meshes' linear solver and its options as text: `feti (subdomains 8, preconditioner
+/// dirichlet, tolerance 1e-10, max_iterations 1000)`, `direct`.
+pub fn mesh_solver_text(s: &MeshSolver) -> String {
+    match s {
+        MeshSolver::Direct => s.name().to_string(),
+        MeshSolver::Feti(o) => format!(
+            "{} (subdomains {}, preconditioner {}, tolerance {}, max_iterations {})",
+            s.name(),
+            o.subdomains,
+            o.preconditioner.name(),
+            short(o.tolerance),
+            o.max_iterations
+        ),
+    }
+}
+
 fn element_text(k: ElementKind) -> &'static str {
     match k {
         ElementKind::Bar2 => "bar2",
@@ -387,7 +403,10 @@ pub fn summary(scene: &Scene) -> CheckSummary {
         },
         gravity: scene.gravity,
         method: match scene.simulate.mesh_method {
-            m if m.is_implicit() => format!("mesh_method {}", m.name()),
+            m if m.is_implicit() => match scene.simulate.mesh_solver {
+                MeshSolver::Direct => format!("mesh_method {}", m.name()),
+                s => format!("mesh_method {}, solver {}", m.name(), mesh_solver_text(&s)),
+            },
             _ => method_text(&scene.simulate.method),
         },
         step: scene.simulate.step,
@@ -613,5 +632,37 @@ mod tests {
             "{text}"
         );
         assert!(text.contains("  critical     step "), "{text}");
+    }
+
+    /// `mbdc check` shows a FETI mesh solver with its options beside the implicit
+    /// `mesh_method`, and nothing more for the direct one.
+    #[test]
+    fn the_method_line_shows_a_feti_solver() {
+        let plate = |simulate: &str| {
+            format!("model m {{\n  material alu {{ E 70 GPa; nu 0.33; rho 2700 kg/m^3 }}\n  mesh p {{\n    element quad4\n    thickness 1 cm\n    generate rect(origin: (0, 0) m, size: (1, 0.5) m, divisions: (4, 2))\n    material alu\n    set left = nodes(x == 0)\n    fix left\n  }}\n  simulate {{ duration 1 s; step 1 s; {simulate} }}\n}}\n")
+        };
+        let method = |simulate: &str| {
+            let loaded = crate::load_str("m.mbd", &plate(simulate), &[]);
+            let scene = loaded.scene.expect("a scene");
+            let s = super::summary(&scene);
+            assert!(
+                s.to_string()
+                    .contains(&format!("  method       {}\n", s.method)),
+                "{s}"
+            );
+            s.method
+        };
+        assert_eq!(
+            method("mesh_method static; solver feti { subdomains 8; preconditioner lumped; max_iterations 500 }"),
+            "mesh_method static, solver feti (subdomains 8, preconditioner lumped, tolerance 1e-10, max_iterations 500)"
+        );
+        assert_eq!(
+            method("mesh_method newmark; solver feti"),
+            "mesh_method newmark, solver feti (subdomains 4, preconditioner dirichlet, tolerance 1e-10, max_iterations 1000)"
+        );
+        assert_eq!(
+            method("mesh_method static; solver direct"),
+            "mesh_method static"
+        );
     }
 }

@@ -363,3 +363,55 @@ fn chain_source_does_not_grow_with_links() {
         "table layout: {t:?} bytes for 10, 100, 1000 links"
     );
 }
+
+/// A FETI mesh solver survives the round trip into generated code: the scene JSON the code
+/// carries (inline, as `SCENE_JSON`, or beside it) holds `solver feti` with its options and
+/// reads back to the same settings. (A direct solver is left out of the JSON, so the
+/// snapshots above do not change.)
+#[test]
+fn feti_solver_survives_into_generated_code() {
+    use mbdc_runtime::scene::{FetiOptions, FetiPreconditioner, MeshSolver};
+    let src = "model plate {
+  material alu { E 70 GPa; nu 0.33; rho 2700 kg/m^3 }
+  mesh p {
+    element quad4
+    thickness 1 cm
+    generate rect(origin: (0, 0) m, size: (2, 1) m, divisions: (4, 2))
+    material alu
+    set left = nodes(x == 0)
+    fix left
+  }
+  simulate {
+    duration 1 s; step 1 s; mesh_method static
+    solver feti { subdomains 8; preconditioner lumped; tolerance 1e-9; max_iterations 500 }
+  }
+}";
+    let loaded = load_str("plate.mbd", src, &[]);
+    let scene = loaded.scene.expect("the plate loads");
+    let feti = MeshSolver::Feti(FetiOptions {
+        subdomains: 8,
+        preconditioner: FetiPreconditioner::Lumped,
+        tolerance: 1e-9,
+        max_iterations: 500,
+    });
+    assert_eq!(scene.simulate.mesh_solver, feti);
+    let carried = r#""mesh_solver":{"feti":{"subdomains":8,"preconditioner":"lumped","tolerance":1e-9,"max_iterations":500}}"#;
+    let g = gen(&scene, None);
+    assert!(g.scene_json.contains(carried), "{}", g.scene_json);
+    let back = mbdc_runtime::compiled::scene_from_json(&g.scene_json).expect("reads back");
+    assert_eq!(back.simulate, scene.simulate);
+    // Inline: the same JSON is the string literal in the source.
+    let inline = generate(
+        &scene,
+        &Options {
+            scene_json: SceneJson::Inline,
+            ..options(None)
+        },
+    )
+    .expect("generate");
+    assert_eq!(inline.scene_json, g.scene_json);
+    assert!(
+        inline.source.contains(&carried.replace('"', "\\\"")),
+        "the source does not carry the solver"
+    );
+}

@@ -943,3 +943,419 @@ fn plastic_materials() {
     );
     assert!(m.contains("beams are elastic"), "{m}");
 }
+
+/// A model of one quad4 plate, 4 × 2 = 8 elements, fixed on its left edge, with the given
+/// items in `simulate` after `duration 1 s; step 1 s`.
+fn plate(simulate: &str) -> String {
+    format!(
+        "model t {{\n material alu {{ E 70 GPa; nu 0.33; rho 2700 kg/m^3 }}\n mesh p {{\n element quad4\n thickness 1 cm\n generate rect(origin: (0, 0) m, size: (2, 1) m, divisions: (4, 2))\n material alu\n set left = nodes(x == 0)\n fix left\n }}\n simulate {{ duration 1 s; step 1 s\n {simulate} }}\n}}\n"
+    )
+}
+
+/// Every diagnostic of `src`: severity, code, message, the text under its primary label
+/// and its help.
+fn diagnostics_at(src: &str) -> Vec<(String, String, String, String, String)> {
+    let l = load_str("test.mbd", src, &[]);
+    l.diagnostics
+        .iter()
+        .map(|d| {
+            let at = d
+                .labels
+                .iter()
+                .find(|l| l.primary)
+                .map(|l| src[l.span.start..l.span.end].to_string())
+                .unwrap_or_default();
+            (
+                format!("{:?}", d.severity),
+                d.code.to_string(),
+                d.message.clone(),
+                at,
+                d.help.clone().unwrap_or_default(),
+            )
+        })
+        .collect()
+}
+
+/// `simulate { solver direct | feti [{ OPTIONS }] }`: the default is the direct solver,
+/// `feti` takes the contract's defaults, and every option lowers.
+#[test]
+fn mesh_solver_lowers_with_its_options() {
+    use mbdc_runtime::scene::{FetiOptions, FetiPreconditioner, MeshSolver};
+    assert_eq!(
+        FetiOptions::default(),
+        FetiOptions {
+            subdomains: 4,
+            preconditioner: FetiPreconditioner::Dirichlet,
+            tolerance: 1e-10,
+            max_iterations: 1000
+        }
+    );
+    for (items, expected) in [
+        ("mesh_method static", MeshSolver::Direct),
+        ("mesh_method static; solver direct", MeshSolver::Direct),
+        ("mesh_method static; solver direct {}", MeshSolver::Direct),
+        (
+            "mesh_method static; solver feti",
+            MeshSolver::Feti(FetiOptions::default()),
+        ),
+        (
+            "mesh_method newmark; solver feti {}",
+            MeshSolver::Feti(FetiOptions::default()),
+        ),
+        (
+            "mesh_method static\n solver feti { subdomains 8; preconditioner lumped; tolerance 1e-8; max_iterations 500 }",
+            MeshSolver::Feti(FetiOptions {
+                subdomains: 8,
+                preconditioner: FetiPreconditioner::Lumped,
+                tolerance: 1e-8,
+                max_iterations: 500,
+            }),
+        ),
+        // One option given: the others keep their defaults; options are expressions.
+        (
+            "mesh_method static; solver feti { subdomains 2 * 3 }",
+            MeshSolver::Feti(FetiOptions {
+                subdomains: 6,
+                ..FetiOptions::default()
+            }),
+        ),
+        (
+            "mesh_method static; solver feti { tolerance 1e-6 }",
+            MeshSolver::Feti(FetiOptions {
+                tolerance: 1e-6,
+                ..FetiOptions::default()
+            }),
+        ),
+        (
+            "mesh_method static; solver feti { max_iterations 20 }",
+            MeshSolver::Feti(FetiOptions {
+                max_iterations: 20,
+                ..FetiOptions::default()
+            }),
+        ),
+    ] {
+        assert_eq!(scene(&plate(items)).simulate.mesh_solver, expected, "{items}");
+    }
+    for (word, p) in [
+        ("dirichlet", FetiPreconditioner::Dirichlet),
+        ("lumped", FetiPreconditioner::Lumped),
+        ("none", FetiPreconditioner::None),
+    ] {
+        let s = scene(&plate(&format!(
+            "mesh_method static; solver feti {{ preconditioner {word} }}"
+        )));
+        assert_eq!(
+            s.simulate.mesh_solver,
+            MeshSolver::Feti(FetiOptions {
+                preconditioner: p,
+                ..FetiOptions::default()
+            })
+        );
+        assert_eq!(p.name(), word);
+    }
+}
+
+/// Bad `solver` items are errors at the offending text, diagnosed as `method` is: unknown
+/// solvers and options (with the valid ones in the help), duplicates, wrong kinds, and each
+/// option's range.
+#[test]
+fn mesh_solver_errors_point_at_the_text() {
+    let feti_takes = "`feti` takes: subdomains, preconditioner, tolerance, max_iterations";
+    let cases: &[(&str, &str, &str, &str, &str)] = &[
+        // (solver items, code, message, text under the label, help (part))
+        (
+            "solvr feti",
+            "mbdc::unknown-property",
+            "unknown property `solvr` in `simulate`",
+            "solvr",
+            "did you mean `solver`? `simulate` takes: duration, step, method, mesh_method, solver, output",
+        ),
+        (
+            "solver fetti",
+            "mbdc::unknown-method",
+            "unknown solver `fetti`",
+            "fetti",
+            "did you mean `feti`? Solvers: direct, feti",
+        ),
+        (
+            "solver lu { tolerance 1e-9 }",
+            "mbdc::unknown-method",
+            "unknown solver `lu`",
+            "lu",
+            "solvers: direct, feti",
+        ),
+        (
+            "solver 3",
+            "mbdc::unknown-method",
+            "a solver is a name such as `feti`",
+            "3",
+            "solvers: direct, feti",
+        ),
+        (
+            "solver feti { subdomain 8 }",
+            "mbdc::unknown-method-option",
+            "unknown option `subdomain` of solver `feti`",
+            "subdomain",
+            "did you mean `subdomains`? `feti` takes: subdomains, preconditioner, tolerance, max_iterations",
+        ),
+        (
+            "solver feti { epsilon 1e-6 }",
+            "mbdc::unknown-method-option",
+            "unknown option `epsilon` of solver `feti`",
+            "epsilon",
+            feti_takes,
+        ),
+        (
+            "solver direct { tolerance 1e-9 }",
+            "mbdc::unknown-method-option",
+            "unknown option `tolerance` of solver `direct`",
+            "tolerance",
+            "`direct` takes no options",
+        ),
+        (
+            "solver feti { tolerance 1e-9; tolerance 1e-8 }",
+            "mbdc::duplicate-property",
+            "option `tolerance` is given twice",
+            "tolerance 1e-8",
+            "",
+        ),
+        (
+            "solver feti { subdomains 2, 3 }",
+            "mbdc::wrong-kind",
+            "option `subdomains` takes one value",
+            "subdomains 2, 3",
+            "",
+        ),
+        (
+            "solver feti { body b {} }",
+            "mbdc::unknown-method-option",
+            "solver options are written `NAME VALUE`",
+            "body b {}",
+            "",
+        ),
+        (
+            "solver feti\n solver direct",
+            "mbdc::duplicate-property",
+            "`solver` is given twice in `simulate`",
+            "solver direct",
+            "",
+        ),
+        (
+            "solver direct\n solver feti { subdomains 2 }",
+            "mbdc::duplicate-property",
+            "`solver` is given twice in `simulate`",
+            "solver feti { subdomains 2 }",
+            "",
+        ),
+        (
+            "solver feti {}\n solver feti { subdomains 2 }",
+            "mbdc::duplicate-property",
+            "`solver` is given twice in `simulate`",
+            "solver feti { subdomains 2 }",
+            "",
+        ),
+        (
+            "solver = 3 { subdomains 2 }",
+            "mbdc::wrong-kind",
+            "write `solver NAME` or `solver NAME { OPTIONS }`",
+            "solver = 3 { subdomains 2 }",
+            "",
+        ),
+        (
+            "solver feti { subdomains 0 }",
+            "mbdc::invalid-value",
+            "subdomains must be a positive integer, found 0",
+            "0",
+            "",
+        ),
+        (
+            "solver feti { subdomains -2 }",
+            "mbdc::invalid-value",
+            "subdomains must be a positive integer, found -2",
+            "-2",
+            "",
+        ),
+        (
+            "solver feti { subdomains 2.5 }",
+            "mbdc::invalid-value",
+            "subdomains must be an integer, found 2.5",
+            "2.5",
+            "",
+        ),
+        (
+            "solver feti { subdomains 100001 }",
+            "mbdc::invalid-value",
+            "subdomains must be at most 100000, found 100001",
+            "100001",
+            "",
+        ),
+        (
+            "solver feti { subdomains 4 m }",
+            "mbdc::unit-mismatch",
+            "",
+            "4 m",
+            "",
+        ),
+        (
+            "solver feti { preconditioner jacobi }",
+            "mbdc::wrong-kind",
+            "`preconditioner` is `dirichlet`, `lumped` or `none`",
+            "jacobi",
+            "",
+        ),
+        (
+            "solver feti { tolerance 0 }",
+            "mbdc::invalid-value",
+            "a tolerance must be positive, found 0",
+            "0",
+            "",
+        ),
+        (
+            "solver feti { tolerance 1 }",
+            "mbdc::invalid-value",
+            "a tolerance must be less than 1, found 1",
+            "1",
+            "the interface residual",
+        ),
+        (
+            "solver feti { tolerance 1e-9 s }",
+            "mbdc::unit-mismatch",
+            "",
+            "1e-9 s",
+            "",
+        ),
+        (
+            "solver feti { max_iterations 0 }",
+            "mbdc::invalid-value",
+            "max_iterations must be a positive integer, found 0",
+            "0",
+            "",
+        ),
+        (
+            "solver feti { max_iterations 1.5 }",
+            "mbdc::invalid-value",
+            "max_iterations must be an integer, found 1.5",
+            "1.5",
+            "",
+        ),
+    ];
+    for &(items, code, msg, at, help) in cases {
+        let src = plate(&format!("mesh_method static\n {items}"));
+        let ds = diagnostics_at(&src);
+        let errors: Vec<_> = ds.iter().filter(|d| d.0 == "Error").collect();
+        assert_eq!(errors.len(), 1, "{items}: {ds:?}");
+        let (_, c, m, a, h) = errors[0];
+        assert_eq!((c.as_str(), a.as_str()), (code, at), "{items}: {m}");
+        assert!(m.contains(msg), "{items}: {m}");
+        assert!(h.contains(help), "{items}: {h}");
+    }
+}
+
+/// The checker: `solver feti` with the explicit `mesh_method central_difference` (no linear
+/// solve) or on a model without meshes is a warning at `solver`; more `subdomains` than the
+/// meshes have elements is an error at `subdomains` (or at `solver`, for the default 4).
+#[test]
+fn mesh_solver_checks_against_the_model() {
+    use mbdc_runtime::scene::MeshSolver;
+    // The one diagnostic of `src` beside notes (free bodies, degrees of freedom).
+    let only = |src: &str| {
+        let ds: Vec<_> = diagnostics_at(src)
+            .into_iter()
+            .filter(|d| d.0 != "Note")
+            .collect();
+        assert_eq!(ds.len(), 1, "{ds:?}");
+        ds[0].clone()
+    };
+    // Explicit mesh analysis, written or by default: the warning, and the scene still lowers.
+    for items in [
+        "mesh_method central_difference\n solver feti { subdomains 2 }",
+        "solver feti { subdomains 2 }",
+    ] {
+        let src = plate(items);
+        let (sev, code, msg, at, help) = only(&src);
+        assert_eq!(
+            (sev.as_str(), code.as_str(), at.as_str()),
+            ("Warning", "mbdc::no-effect", "solver feti { subdomains 2 }"),
+            "{items}"
+        );
+        assert!(
+            msg.contains("`solver feti` has no effect with `mesh_method central_difference`")
+                && msg.contains("FETI serves `mesh_method static | newmark`"),
+            "{msg}"
+        );
+        assert!(help.contains("mesh_method static"), "{help}");
+        assert!(matches!(
+            scene(&src).simulate.mesh_solver,
+            MeshSolver::Feti(_)
+        ));
+    }
+    // No meshes.
+    let src = model("body b { mass 1 kg; inertia sphere(radius: 1 cm) }").replace(
+        "simulate { duration 1 s; step 1 ms }",
+        "simulate { duration 1 s; step 1 ms; solver feti }",
+    );
+    let (sev, code, msg, at, _) = only(&src);
+    assert_eq!(
+        (sev.as_str(), code.as_str(), msg.as_str(), at.as_str()),
+        (
+            "Warning",
+            "mbdc::no-effect",
+            "`solver feti` has no effect: the model has no mesh",
+            "solver feti"
+        )
+    );
+    // Subdomains against the 8 elements of the plate.
+    assert!(diagnostics_at(&plate("mesh_method static; solver feti { subdomains 8 }")).is_empty());
+    assert!(diagnostics_at(&plate("mesh_method newmark; solver feti { subdomains 1 }")).is_empty());
+    assert!(diagnostics_at(&plate("mesh_method static; solver direct")).is_empty());
+    let (sev, code, msg, at, help) = only(&plate(
+        "mesh_method newmark\n solver feti { subdomains 9; tolerance 1e-8 }",
+    ));
+    assert_eq!(
+        (sev.as_str(), code.as_str(), at.as_str()),
+        ("Error", "mbdc::invalid-value", "subdomains 9")
+    );
+    assert_eq!(
+        msg,
+        "`subdomains 9` is more than the 8 elements of the model's mesh: each subdomain needs at least one element"
+    );
+    assert_eq!(help, "use at most 8 subdomains (`subdomains 8`)");
+    // The default 4 on a mesh of 2 elements: at `solver`.
+    let src = mesh_with("quad4", "").replace(
+        "generate rect(origin: (0, 0) m, size: (1, 1) m, divisions: (1, 1))",
+        "generate rect(origin: (0, 0) m, size: (2, 1) m, divisions: (2, 1))",
+    );
+    let src = src.replace(
+        "simulate { duration 1 s; step 1 ms }",
+        "simulate { duration 1 s; step 1 s; mesh_method static; solver feti }",
+    );
+    let (sev, _, msg, at, _) = only(&src);
+    assert_eq!(
+        (sev.as_str(), at.as_str()),
+        ("Error", "solver feti"),
+        "{msg}"
+    );
+    assert!(
+        msg.contains("into 4 subdomains by default, more than the 2 elements"),
+        "{msg}"
+    );
+}
+
+/// The scene's JSON (what generated code and `mbdc run` carry) holds a FETI solver with its
+/// options, and reads back to the same settings; a direct solver leaves the field out.
+#[test]
+fn mesh_solver_survives_the_scene_json() {
+    let s = scene(&plate(
+        "mesh_method static\n solver feti { subdomains 8; preconditioner none; tolerance 1e-9; max_iterations 500 }",
+    ));
+    let json = serde_json::to_string(&s).expect("json");
+    assert!(
+        json.contains(r#""mesh_solver":{"feti":{"subdomains":8,"preconditioner":"none","tolerance":1e-9,"max_iterations":500}}"#),
+        "{json}"
+    );
+    let back = mbdc_runtime::compiled::scene_from_json(&json).expect("reads back");
+    assert_eq!(back.simulate, s.simulate);
+    let direct = scene(&plate("mesh_method static; solver direct"));
+    let json = serde_json::to_string(&direct).expect("json");
+    assert!(!json.contains("mesh_solver"), "{json}");
+}

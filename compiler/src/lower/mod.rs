@@ -535,6 +535,7 @@ impl<'a> Lowerer<'a> {
         };
         if let Some(s) = self.simulate.clone() {
             self.check_mesh_method(&s, &scene);
+            self.check_mesh_solver(&s, &scene);
             if self.has_errors() {
                 return None;
             }

@@ -115,7 +115,12 @@ impl<'a> Lowerer<'a> {
                         let names: Vec<&str> = keys
                             .iter()
                             .map(|k| k.name)
-                            .chain(decls.iter().copied())
+                            .chain(
+                                decls
+                                    .iter()
+                                    .copied()
+                                    .filter(|d| !keys.iter().any(|k| k.name == *d)),
+                            )
                             .collect();
                         let close = suggest::closest(&key.name, names.iter().copied());
                         if let Some(c) = &close {
@@ -196,7 +201,12 @@ impl<'a> Lowerer<'a> {
                     let names: Vec<&str> = keys
                         .iter()
                         .map(|k| k.name)
-                        .chain(decls.iter().copied())
+                        .chain(
+                            decls
+                                .iter()
+                                .copied()
+                                .filter(|d| !keys.iter().any(|k| k.name == *d)),
+                        )
                         .collect();
                     let mut d = Diagnostic::error(
                         codes::UNKNOWN_ITEM,

@@ -2,8 +2,9 @@
 
 use mbdc_dsl::ast::{Expr, ItemKind};
 use mbdc_runtime::scene::{
-    BodyReference, Factorization, Fn1, Gyroscopic, LintForm, MeshMethod, MethodSpec, OutputFormat,
-    OutputSpec, Reference, Relaxation, Simulate, StaggeredOptions,
+    BodyReference, Factorization, FetiOptions, FetiPreconditioner, Fn1, Gyroscopic, LintForm,
+    MeshMethod, MeshSolver, MethodSpec, OutputFormat, OutputSpec, Reference, Relaxation, Simulate,
+    StaggeredOptions,
 };
 
 use super::body::num;
@@ -19,6 +20,7 @@ const SIM_KEYS: &[Key] = &[
     one("step"),
     one("method"),
     one("mesh_method"),
+    one("solver"),
 ];
 const OUTPUT_KEYS: &[Key] = &[
     one("every"),
@@ -58,6 +60,26 @@ pub(crate) fn method_options(name: &str) -> &'static [&'static str] {
     }
 }
 
+/// The names of the meshes' linear solvers (`simulate { solver NAME }`), in documentation
+/// order.
+pub(crate) const SOLVER_NAMES: &[&str] = &["direct", "feti"];
+
+/// The options each mesh solver accepts.
+pub(crate) fn solver_options(name: &str) -> &'static [&'static str] {
+    match name {
+        "feti" => &[
+            "subdomains",
+            "preconditioner",
+            "tolerance",
+            "max_iterations",
+        ],
+        _ => &[],
+    }
+}
+
+/// The most subdomains `solver feti { subdomains P }` accepts.
+pub(crate) const MAX_SUBDOMAINS: i64 = 100_000;
+
 impl<'a> Lowerer<'a> {
     pub(crate) fn lower_gravity(&mut self, s: &Single<'a>) -> R<[f64; 3]> {
         let ItemKind::Prop { values, .. } = &s.item.kind else {
@@ -86,7 +108,13 @@ impl<'a> Lowerer<'a> {
         else {
             return Err(Reported);
         };
-        let props = self.props(block, sc, "`simulate`", SIM_KEYS, &["method", "output"]);
+        let props = self.props(
+            block,
+            sc,
+            "`simulate`",
+            SIM_KEYS,
+            &["method", "solver", "output"],
+        );
         let duration = match props.value("duration") {
             Some(e) => self.positive(e, sc, Dim::TIME, "the duration"),
             None => Err(self.missing(
@@ -121,6 +149,11 @@ impl<'a> Lowerer<'a> {
             ),
             None => Ok(MeshMethod::default()),
         };
+        let mut mesh_solver: R<MeshSolver> = Ok(MeshSolver::default());
+        let mut solver_seen = props.get("solver").map(|p| p.span);
+        if let Some(p) = props.get("solver") {
+            mesh_solver = self.solver(&p.values[0], None, sc);
+        }
         let mut output: R<OutputSpec> = Ok(OutputSpec::default());
         let mut output_seen: Option<mbdc_dsl::ast::Span> = None;
         for item in &props.decls {
@@ -165,6 +198,37 @@ impl<'a> Lowerer<'a> {
                         )),
                     };
                 }
+                "solver" => {
+                    if let Some(prev) = solver_seen {
+                        self.report(
+                            Diagnostic::error(
+                                codes::DUPLICATE_PROPERTY,
+                                "`solver` is given twice in `simulate`",
+                            )
+                            .primary(sc.file, item.span, "second")
+                            .secondary(sc.file, prev, "first"),
+                        );
+                        mesh_solver = Err(Reported);
+                        continue;
+                    }
+                    solver_seen = Some(item.span);
+                    mesh_solver = match (name, value) {
+                        (Some(n), None) if n.indices.is_empty() => {
+                            let e = Expr {
+                                kind: mbdc_dsl::ast::ExprKind::Ident(n.base.clone()),
+                                span: n.span,
+                            };
+                            self.solver(&e, body.as_ref(), sc)
+                        }
+                        _ => Err(self.report(
+                            Diagnostic::error(
+                                codes::WRONG_KIND,
+                                "write `solver NAME` or `solver NAME { OPTIONS }`",
+                            )
+                            .primary(sc.file, item.span, ""),
+                        )),
+                    };
+                }
                 _ => {
                     if let Some(prev) = output_seen {
                         self.report(
@@ -192,8 +256,14 @@ impl<'a> Lowerer<'a> {
                 }
             }
         }
-        let (duration, step, method, mesh_method, output) =
-            (duration?, step?, method?, mesh_method?, output?);
+        let (duration, step, method, mesh_method, mesh_solver, output) = (
+            duration?,
+            step?,
+            method?,
+            mesh_method?,
+            mesh_solver?,
+            output?,
+        );
         if step > duration {
             self.report(
                 Diagnostic::warning(
@@ -230,7 +300,7 @@ impl<'a> Lowerer<'a> {
             step,
             method,
             mesh_method,
-            mesh_solver: mbdc_runtime::scene::MeshSolver::default(),
+            mesh_solver,
             output,
         })
     }
@@ -326,6 +396,88 @@ impl<'a> Lowerer<'a> {
         }
     }
 
+    /// `solver feti` where it cannot act: with the explicit `mesh_method central_difference`
+    /// (no linear solve) or on a model without meshes, a warning at `solver`; with more
+    /// `subdomains` than the meshes have elements, an error at `subdomains`.
+    pub(crate) fn check_mesh_solver(&mut self, s: &Single<'a>, scene: &mbdc_runtime::scene::Scene) {
+        let MeshSolver::Feti(o) = scene.simulate.mesh_solver else {
+            return;
+        };
+        let ItemKind::Decl {
+            body: Some(block), ..
+        } = &s.item.kind
+        else {
+            return;
+        };
+        let Some(item) = block.items.iter().find(|it| match &it.kind {
+            ItemKind::Prop { key, .. } => key.name == "solver",
+            ItemKind::Decl { keyword, .. } => keyword.name == "solver",
+            _ => false,
+        }) else {
+            return;
+        };
+        let file = s.sc.file;
+        if scene.meshes.is_empty() {
+            self.report(
+                Diagnostic::warning(
+                    codes::NO_EFFECT,
+                    "`solver feti` has no effect: the model has no mesh",
+                )
+                .primary(file, item.span, ""),
+            );
+            return;
+        }
+        let m = scene.simulate.mesh_method;
+        if !m.is_implicit() {
+            self.report(
+                Diagnostic::warning(
+                    codes::NO_EFFECT,
+                    format!(
+                        "`solver feti` has no effect with `mesh_method {}`, which solves no linear system: FETI serves `mesh_method static | newmark`",
+                        m.name()
+                    ),
+                )
+                .primary(file, item.span, "")
+                .help("add `mesh_method static` or `mesh_method newmark`, or remove `solver feti`"),
+            );
+            return;
+        }
+        let elements: usize = scene.meshes.iter().map(|m| m.elements.len()).sum();
+        if o.subdomains as usize > elements {
+            // At `subdomains` when it is written, else at `solver` (the default).
+            let written = match &item.kind {
+                ItemKind::Decl {
+                    body: Some(options),
+                    ..
+                } => options.items.iter().find_map(|it| match &it.kind {
+                    ItemKind::Prop { key, .. } if key.name == "subdomains" => Some(it.span),
+                    _ => None,
+                }),
+                _ => None,
+            };
+            let (n, p) = (scene.meshes.len(), o.subdomains);
+            let meshes = if n == 1 {
+                "mesh".to_string()
+            } else {
+                format!("{n} meshes")
+            };
+            let what = match written {
+                Some(_) => format!("`subdomains {p}` is"),
+                None => format!("`solver feti` tears the meshes into {p} subdomains by default,"),
+            };
+            self.report(
+                Diagnostic::error(
+                    codes::INVALID_VALUE,
+                    format!(
+                        "{what} more than the {elements} elements of the model's {meshes}: each subdomain needs at least one element"
+                    ),
+                )
+                .primary(file, written.unwrap_or(item.span), "")
+                .help(format!("use at most {elements} subdomains (`subdomains {elements}`)")),
+            );
+        }
+    }
+
     fn method(
         &mut self,
         e: &Expr,
@@ -357,7 +509,83 @@ impl<'a> Lowerer<'a> {
             ));
         };
         let Some(block) = block else { return Ok(spec) };
-        let valid = method_options(name);
+        let ok = self.options(
+            block,
+            sc,
+            "method",
+            name,
+            method_options(name),
+            |this, k, v, sc| this.set_option(&mut spec, k, v, sc),
+        );
+        if ok {
+            Ok(spec)
+        } else {
+            Err(Reported)
+        }
+    }
+
+    /// The mesh solver of `solver NAME` (`e` is NAME) with the options of its `block`
+    /// (`solver feti { subdomains 8 }`), diagnosed as `method NAME { OPTIONS }` is.
+    fn solver(
+        &mut self,
+        e: &Expr,
+        block: Option<&'a mbdc_dsl::ast::Block>,
+        sc: &Scope,
+    ) -> R<MeshSolver> {
+        let names = SOLVER_NAMES.join(", ");
+        let Some(name) = ident_of(e) else {
+            return Err(self.report(
+                Diagnostic::error(codes::UNKNOWN_METHOD, "a solver is a name such as `feti`")
+                    .primary(sc.file, e.span, "")
+                    .help(format!("solvers: {names}")),
+            ));
+        };
+        let mut solver = match name {
+            "direct" => MeshSolver::Direct,
+            "feti" => MeshSolver::Feti(FetiOptions::default()),
+            _ => {
+                let help = match crate::suggest::closest(name, SOLVER_NAMES.iter().copied()) {
+                    Some(s) => format!("did you mean `{s}`? Solvers: {names}"),
+                    None => format!("solvers: {names}"),
+                };
+                return Err(self.report(
+                    Diagnostic::error(codes::UNKNOWN_METHOD, format!("unknown solver `{name}`"))
+                        .primary(sc.file, e.span, "")
+                        .help(help),
+                ));
+            }
+        };
+        let Some(block) = block else {
+            return Ok(solver);
+        };
+        let ok = self.options(
+            block,
+            sc,
+            "solver",
+            name,
+            solver_options(name),
+            |this, k, v, sc| this.set_solver_option(&mut solver, k, v, sc),
+        );
+        if ok {
+            Ok(solver)
+        } else {
+            Err(Reported)
+        }
+    }
+
+    /// The options block of `what NAME { OPTIONS }` (`what` is `method` or `solver`): each
+    /// item a `KEY VALUE` with a key among `valid`, given once, passed to `set`. Reports
+    /// anything else (unknown options with the valid ones in a help line, duplicates, items
+    /// that are not options, several values) and returns whether all were good.
+    fn options(
+        &mut self,
+        block: &'a mbdc_dsl::ast::Block,
+        sc: &Scope,
+        what: &str,
+        name: &str,
+        valid: &[&str],
+        mut set: impl FnMut(&mut Self, &str, &Expr, &Scope) -> R<()>,
+    ) -> bool {
         let mut ok = true;
         let mut seen: Vec<(&str, mbdc_dsl::ast::Span)> = Vec::new();
         for it in &block.items {
@@ -365,7 +593,7 @@ impl<'a> Lowerer<'a> {
                 self.report(
                     Diagnostic::error(
                         codes::UNKNOWN_METHOD_OPTION,
-                        "method options are written `NAME VALUE`",
+                        format!("{what} options are written `NAME VALUE`"),
                     )
                     .primary(sc.file, it.span, ""),
                 );
@@ -387,7 +615,7 @@ impl<'a> Lowerer<'a> {
                 self.report(
                     Diagnostic::error(
                         codes::UNKNOWN_METHOD_OPTION,
-                        format!("unknown option `{k}` of method `{name}`"),
+                        format!("unknown option `{k}` of {what} `{name}`"),
                     )
                     .primary(sc.file, key.span, "unknown option")
                     .help(help),
@@ -417,15 +645,66 @@ impl<'a> Lowerer<'a> {
                 ok = false;
                 continue;
             }
-            let v = &values[0];
-            let r = self.set_option(&mut spec, k, v, sc);
-            ok &= r.is_ok();
+            ok &= set(self, k, &values[0], sc).is_ok();
         }
-        if ok {
-            Ok(spec)
-        } else {
-            Err(Reported)
+        ok
+    }
+
+    fn set_solver_option(
+        &mut self,
+        solver: &mut MeshSolver,
+        k: &str,
+        v: &Expr,
+        sc: &Scope,
+    ) -> R<()> {
+        let MeshSolver::Feti(o) = solver else {
+            return Err(Reported);
+        };
+        match k {
+            "subdomains" => {
+                let n = self.int(v, sc, "subdomains")?;
+                if !(1..=MAX_SUBDOMAINS).contains(&n) {
+                    let msg = if n < 1 {
+                        format!("subdomains must be a positive integer, found {n}")
+                    } else {
+                        format!("subdomains must be at most {MAX_SUBDOMAINS}, found {n}")
+                    };
+                    return Err(self.report(
+                        Diagnostic::error(codes::INVALID_VALUE, msg).primary(sc.file, v.span, ""),
+                    ));
+                }
+                o.subdomains = n as u32;
+            }
+            "preconditioner" => {
+                o.preconditioner = self.keyword(
+                    v,
+                    sc,
+                    "preconditioner",
+                    &[
+                        ("dirichlet", FetiPreconditioner::Dirichlet),
+                        ("lumped", FetiPreconditioner::Lumped),
+                        ("none", FetiPreconditioner::None),
+                    ],
+                )?
+            }
+            "tolerance" => {
+                let t = self.positive(v, sc, Dim::NONE, "a tolerance")?;
+                if t >= 1.0 {
+                    return Err(self.report(
+                        Diagnostic::error(
+                            codes::INVALID_VALUE,
+                            format!("a tolerance must be less than 1, found {}", num(t)),
+                        )
+                        .primary(sc.file, v.span, "")
+                        .help("it is the factor by which the interface residual must fall, such as 1e-10"),
+                    ));
+                }
+                o.tolerance = t;
+            }
+            "max_iterations" => o.max_iterations = self.count(v, sc, "max_iterations")?,
+            _ => return Err(Reported),
         }
+        Ok(())
     }
 
     /// A method option that is one of a few words: the value of the word `v` names, or an
