@@ -34,6 +34,7 @@ use mbdc_runtime::scene::MethodSpec;
 use mbdc_runtime::system::{ConstraintEval, Need, System, Wrench};
 
 mod checkpoints;
+mod feti;
 mod meshes;
 mod output;
 
@@ -76,6 +77,10 @@ fn main() {
             args.get(2).and_then(|s| s.parse().ok()).unwrap_or(1000),
             args.get(3).and_then(|s| s.parse().ok()).unwrap_or(0),
         ),
+        Some("feti") => feti::feti(
+            args.get(1).and_then(|s| s.parse().ok()).unwrap_or(16),
+            args.get(2).and_then(|s| s.parse().ok()).unwrap_or(2),
+        ),
         Some("profile") => profile(args.get(1).and_then(|s| s.parse().ok()).unwrap_or(200_000)),
         Some("startup") => startup(
             &args
@@ -85,7 +90,7 @@ fn main() {
         ),
         _ => {
             eprintln!(
-                "usage: mbdc-bench steps [ROUNDS] | size | startup [MBDC] | profile [STEPS] | beams [ROUNDS] | meshes [SCALE] [ROUNDS] | meshes-assembly [SCALE] [ROUNDS] | checkpoints [ROUNDS] | output [ROUNDS] [SCALE]"
+                "usage: mbdc-bench steps [ROUNDS] | size | startup [MBDC] | profile [STEPS] | beams [ROUNDS] | meshes [SCALE] [ROUNDS] | meshes-assembly [SCALE] [ROUNDS] | checkpoints [ROUNDS] | output [ROUNDS] [SCALE] | feti [LARGEST] [ROUNDS]"
             );
             std::process::exit(2);
         }
