@@ -82,7 +82,7 @@ pub use analysis::{
 };
 pub use contract::{math, mesh_layout, mesh_plan, persist, scene, system};
 pub use driver::{assemble, checkpoint, energy, output, run_loop};
-pub use kernels::{beam_element, contact, fn1, forces, joints, solid, tree_joints};
+pub use kernels::{beam_element, contact, fn1, forces, joints, solid, traction_basis, tree_joints};
 
 /// The linear-algebra crate of the runtime's types ([`system::Pose`] etc.), re-exported so
 /// that generated code depends on this crate only.

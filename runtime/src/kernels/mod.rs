@@ -16,6 +16,9 @@
 //!   control or full integration with B-bar): internal force, stress, lumped mass, element
 //!   frequency bound and shape check.
 //!
+//! - [`traction_basis`]: the interface traction bases of reduced Lagrange multipliers
+//!   (global polynomials, piecewise cubics with Bessel slopes) and their edge integrals.
+//!
 //! Where new element kernels go: an element's internal force is a kernel here, as the beam
 //! element's ([`beam_element`]) and the solid elements' ([`solid`]) are.
 
@@ -25,4 +28,5 @@ pub mod fn1;
 pub mod forces;
 pub mod joints;
 pub mod solid;
+pub mod traction_basis;
 pub mod tree_joints;
