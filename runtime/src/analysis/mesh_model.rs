@@ -21,7 +21,7 @@ use std::collections::HashMap;
 
 use super::assembly_plan;
 use crate::contract::mesh_layout::{
-    ElementBlock, FoundationSpring, LoadGroup, MeshLayout, Prescribed,
+    ElementBlock, FoundationSpring, LoadGroup, MeshGlue, MeshLayout, Prescribed,
 };
 use crate::contract::mesh_plan::AssemblyOptions;
 use crate::contract::scene::{
@@ -294,8 +294,64 @@ pub fn build_with(meshes: &[Mesh], assembly: AssemblyOptions) -> Result<MeshLayo
         first_element += block.elements();
         l.blocks.push(block);
     }
+    glues(&mut l, meshes)?;
     assembly_plan::build(&mut l, assembly);
     Ok(l)
+}
+
+/// The glues of every mesh into the layout's table, with global node numbers.
+fn glues(l: &mut MeshLayout, meshes: &[Mesh]) -> Result<(), MeshError> {
+    for (mi, m) in meshes.iter().enumerate() {
+        for c in &m.conditions {
+            let MeshCondition::Glue {
+                set,
+                mesh,
+                other_set,
+                traction,
+            } = *c
+            else {
+                continue;
+            };
+            let err = |reason: String| MeshError {
+                mesh: m.name.clone(),
+                reason,
+            };
+            let Some(o) = meshes.get(mesh).filter(|_| mesh != mi) else {
+                return Err(err(format!(
+                    "a glue refers to mesh {mesh}, which is not another mesh of the scene"
+                )));
+            };
+            let Some(os) = o.node_sets.get(other_set) else {
+                return Err(err(format!(
+                    "a glue refers to node set {other_set} of mesh '{}', which has {} sets",
+                    o.name,
+                    o.node_sets.len()
+                )));
+            };
+            let s = &m.node_sets[set];
+            if s.nodes.is_empty() || os.nodes.is_empty() {
+                return Err(err(format!(
+                    "glue of set '{}' to '{}.{}': a glued set needs nodes",
+                    s.name, o.name, os.name
+                )));
+            }
+            let global = |mesh: usize, nodes: &[usize]| -> Vec<u32> {
+                let first = l.blocks[mesh].first_node;
+                nodes.iter().map(|&n| (first + n) as u32).collect()
+            };
+            let glue = MeshGlue {
+                mesh: m.name.clone(),
+                set: s.name.clone(),
+                other_mesh: o.name.clone(),
+                other_set: os.name.clone(),
+                nodes: global(mi, &s.nodes),
+                other_nodes: global(mesh, &os.nodes),
+                traction,
+            };
+            l.glues.push(glue);
+        }
+    }
+    Ok(())
 }
 
 /// The node sets and conditions refer to what exists, and their values are finite (a scene
@@ -329,7 +385,8 @@ fn check_sets(m: &Mesh) -> Result<(), String> {
             | MeshCondition::NodalLoad { set, .. }
             | MeshCondition::Traction { set, .. }
             | MeshCondition::Foundation { set, .. }
-            | MeshCondition::Tie { set, .. } => Some(*set),
+            | MeshCondition::Tie { set, .. }
+            | MeshCondition::Glue { set, .. } => Some(*set),
             MeshCondition::BodyForce { .. } => None,
         };
         if let Some(set) = set {
@@ -433,8 +490,9 @@ fn conditions(
                     });
                 }
             }
-            // Ties need the bodies: `tie_model::apply` lays them out.
-            MeshCondition::Tie { .. } => {}
+            // Ties need the bodies: `tie_model::apply` lays them out; glues need the other
+            // mesh: `build_with` lays them out once every mesh has its nodes.
+            MeshCondition::Tie { .. } | MeshCondition::Glue { .. } => {}
         }
     }
     let mut keys: Vec<_> = dof.into_iter().collect();

@@ -6,7 +6,9 @@
 //! so are the plans of the other assembly strategies ([`super::mesh_plan`]).
 
 use super::mesh_plan::AssemblyPlan;
-use super::scene::{ElementKind, Fn1, Material, MeshFormulation, MeshMethod, MeshSolver};
+use super::scene::{
+    ElementKind, Fn1, GlueTraction, Material, MeshFormulation, MeshMethod, MeshSolver,
+};
 
 /// The meshes of a system (empty for a scene without meshes).
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -40,6 +42,9 @@ pub struct MeshLayout {
     pub ties: Vec<MeshTie>,
     /// The bodies that carry tied nodes, each once (empty without ties).
     pub tied_bodies: Vec<TiedBody>,
+    /// Pairs of node sets of two meshes glued by reduced Lagrange multipliers, in scene
+    /// order (empty without glues).
+    pub glues: Vec<MeshGlue>,
     /// The assembly strategy and its plans (colours, partitions, interface).
     pub assembly: AssemblyPlan,
     /// How the meshes are analysed (the scene's `simulate { mesh_method }`).
@@ -131,6 +136,25 @@ pub struct LoadGroup {
     pub nodes: Vec<u32>,
     /// Weights: 1 for nodal loads, the node's share of the loaded area (m²) for tractions.
     pub weights: Vec<f64>,
+}
+
+/// Two node sets of two meshes glued along a common interface (`glue SET, MESH.SET`).
+#[derive(Clone, Debug, PartialEq)]
+pub struct MeshGlue {
+    /// The mesh that writes the glue, and its set.
+    pub mesh: String,
+    /// See `mesh`.
+    pub set: String,
+    /// The other mesh, and its set.
+    pub other_mesh: String,
+    /// See `other_mesh`.
+    pub other_set: String,
+    /// The set's global nodes.
+    pub nodes: Vec<u32>,
+    /// The other set's global nodes.
+    pub other_nodes: Vec<u32>,
+    /// The interface traction's approximation.
+    pub traction: GlueTraction,
 }
 
 /// A Winkler foundation spring: force `−k (n·u) n` at a node.

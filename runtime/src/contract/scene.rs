@@ -712,6 +712,45 @@ pub enum MeshCondition {
         /// Body index in `Scene::bodies`.
         body: usize,
     },
+    /// The set is glued to a node set of another mesh along a common interface whose nodes
+    /// need not match (`glue SET, MESH.SET { traction ... }`): the interface traction is
+    /// written in a few parameters (reduced Lagrange multipliers, Farhat–Géradin; notes E
+    /// §3) and the two displacement traces are equal in its weak sense.
+    Glue {
+        /// Node set index (this mesh).
+        set: usize,
+        /// The other mesh's index in `Scene::meshes`.
+        mesh: usize,
+        /// The node set index in the other mesh.
+        other_set: usize,
+        /// How the interface traction is approximated.
+        traction: GlueTraction,
+    },
+}
+
+/// The interface traction of a glue (`traction polynomial(degree: P)` or
+/// `traction bessel(points: N)`; docs/methods.md "Meshes: glued by reduced multipliers").
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum GlueTraction {
+    /// A polynomial of the given degree in the interface abscissa (RLM §3): `degree + 1`
+    /// parameters per direction.
+    Polynomial {
+        /// Highest power (0: a constant traction).
+        degree: u32,
+    },
+    /// Piecewise cubic with Bessel slopes through `points` equally spaced traction
+    /// locations (RLM §4): `points` parameters per direction.
+    Bessel {
+        /// Number of traction locations (≥ 1).
+        points: u32,
+    },
+}
+
+impl Default for GlueTraction {
+    fn default() -> Self {
+        GlueTraction::Bessel { points: 5 }
+    }
 }
 
 /// Contact geometry attached to a body.
