@@ -156,6 +156,27 @@ pub fn tear(
     }
     let mut part = bisect_centroids(&centroids, parts);
     face_connect(l, &owner, &mut part);
+    tear_parts(l, global, diagonal, &part, parts)
+}
+
+/// Tear the meshes of `l` into the given parts (`part[e]` for global element `e`, in
+/// `0..parts`, every part non-empty): see [`tear`].
+///
+/// # Errors
+/// What [`tear`] refuses, and an empty part.
+pub fn tear_parts(
+    l: &MeshLayout,
+    global: &SymmetricAssembly,
+    diagonal: Option<&[f64]>,
+    part: &[u32],
+    parts: usize,
+) -> Result<Tearing, MeshError> {
+    let mut owner = Vec::with_capacity(l.elements());
+    for (bi, b) in l.blocks.iter().enumerate() {
+        for e in 0..b.elements() {
+            owner.push((bi as u32, e as u32));
+        }
+    }
     let mut elements: Vec<Vec<(u32, u32)>> = vec![Vec::new(); parts];
     for (ge, &p) in part.iter().enumerate() {
         elements[p as usize].push(owner[ge]);
@@ -171,6 +192,15 @@ pub fn tear(
                 }
             }
         }
+    }
+    if let Some(empty) = elements.iter().position(Vec::is_empty) {
+        return Err(MeshError {
+            mesh: l
+                .blocks
+                .first()
+                .map_or_else(String::new, |b| b.name.clone()),
+            reason: format!("subdomain {empty} has no element"),
+        });
     }
     let mut subdomains = Vec::with_capacity(parts);
     for (s, els) in elements.into_iter().enumerate() {

@@ -240,6 +240,16 @@ impl MeshDynamics {
                 message: why,
             });
         }
+        if let Some(g) = layout.glues.first() {
+            return Err(StepError::Mesh {
+                mesh: g.mesh.clone(),
+                place: format!("set '{}'", g.set),
+                message: format!(
+                    "the glue to '{}.{}' is solved by `mesh_method static` for now; the explicit method would leave the meshes unglued",
+                    g.other_mesh, g.other_set
+                ),
+            });
+        }
         let n = layout.nodes();
         let ne = layout.elements();
         let evals: Vec<BlockEval> = layout

@@ -124,7 +124,7 @@ impl std::fmt::Debug for Feti {
 }
 
 /// `values` with the rows and columns of `mask` decoupled (zero off the diagonal, one on it).
-fn decoupled(a: &SymmetricAssembly, values: &[f64], mask: &[bool]) -> Vec<f64> {
+pub(super) fn decoupled(a: &SymmetricAssembly, values: &[f64], mask: &[bool]) -> Vec<f64> {
     let mut v = values.to_vec();
     let (cp, ri) = (a.col_ptr(), a.row_idx());
     for j in 0..cp.len() - 1 {
@@ -139,7 +139,10 @@ fn decoupled(a: &SymmetricAssembly, values: &[f64], mask: &[bool]) -> Vec<f64> {
 }
 
 /// Factor `values` over the pattern of `a`.
-fn factor(a: &SymmetricAssembly, values: Vec<f64>) -> Result<SparseCholesky, LinalgError> {
+pub(super) fn factor(
+    a: &SymmetricAssembly,
+    values: Vec<f64>,
+) -> Result<SparseCholesky, LinalgError> {
     let n = a.free().len();
     let mut c = SparseCholesky::new(n, a.col_ptr(), a.row_idx(), Definiteness::Positive)?;
     c.values_mut().copy_from_slice(&values);
@@ -148,7 +151,7 @@ fn factor(a: &SymmetricAssembly, values: Vec<f64>) -> Result<SparseCholesky, Lin
 }
 
 /// A readable place of local free dof `j` of subdomain `sd`.
-fn dof_place(l: &MeshLayout, sd: &Subdomain, j: usize) -> String {
+pub(super) fn dof_place(l: &MeshLayout, sd: &Subdomain, j: usize) -> String {
     let d = sd.assembly.free().get(j).copied().unwrap_or(0) as usize;
     let node = sd.nodes.get(d / 3).copied().unwrap_or(0) as usize;
     let x = l.x0.get(node).copied().unwrap_or_default();

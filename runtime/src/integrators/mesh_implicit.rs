@@ -31,6 +31,7 @@ use std::sync::Arc;
 
 use super::mesh_dynamics::{MeshEnergy, MeshState};
 use super::mesh_feti::Feti;
+use super::mesh_glue::Glued;
 use super::{Integrator, State, StepError, StepInfo};
 use crate::analysis::mesh_model::{critical_step, elastic, element_x0, options};
 use crate::analysis::mesh_stiffness::{self, MeshStiffness};
@@ -85,6 +86,9 @@ pub struct MeshImplicit {
 enum LinearSolve {
     Direct(Box<SparseCholesky>),
     Feti(Box<Feti>),
+    /// Meshes glued by reduced multipliers; the mask of the glued interface dofs, whose
+    /// equations hold only with the interface force.
+    Glued(Box<Glued>, Vec<bool>),
 }
 
 /// The mesh (its name) that holds flattened node `node`, and that mesh's first node.
@@ -181,7 +185,25 @@ impl MeshImplicit {
             diag = mass_free.iter().map(|m| c * m).collect();
         }
         let mut notice = None;
+        if !l.glues.is_empty() && (method != MeshMethod::Static || !l.solver.is_direct()) {
+            return Err(super::StartError::Invalid(format!(
+                "glued meshes ('{}' to '{}') are solved by `mesh_method static` with the direct solver for now",
+                l.glues[0].mesh, l.glues[0].other_mesh
+            )));
+        }
         let solver = match l.solver {
+            MeshSolver::Direct if !l.glues.is_empty() => {
+                let g = Glued::new(l, asm).map_err(super::StartError::Invalid)?;
+                let mut mask = vec![false; nf];
+                g.glued_dofs(&mut mask);
+                notice = Some(format!(
+                    "glue: {} meshes, {} glue(s), {} interface parameters",
+                    l.blocks.len(),
+                    l.glues.len(),
+                    g.multipliers()
+                ));
+                LinearSolve::Glued(Box::new(g), mask)
+            }
             MeshSolver::Direct => {
                 let mut chol =
                     SparseCholesky::new(nf, asm.col_ptr(), asm.row_idx(), Definiteness::Positive)?;
@@ -352,6 +374,7 @@ impl MeshImplicit {
                 };
                 self.residual = self.residual.max(r);
             }
+            LinearSolve::Glued(g, _) => g.solve_in_place(&mut self.rhs)?,
         }
         Ok(())
     }
@@ -366,8 +389,15 @@ impl MeshImplicit {
             self.u[g as usize] = *x;
         }
         asm.mul_free(&self.k.free, &self.rhs, &mut self.tmp);
+        let glued: &[bool] = match &self.solver {
+            LinearSolve::Glued(_, mask) => mask,
+            _ => &[],
+        };
         let (mut num, mut den) = (0.0, 0.0);
-        for (kx, b) in self.tmp.iter().zip(&self.b) {
+        for (j, (kx, b)) in self.tmp.iter().zip(&self.b).enumerate() {
+            if glued.get(j).copied().unwrap_or(false) {
+                continue;
+            }
             num += (kx - b) * (kx - b);
             den += b * b;
         }
@@ -530,7 +560,8 @@ impl MeshImplicit {
     }
 
     /// The largest relative residual `‖A u − b‖/‖b‖` of the solves so far: every static
-    /// solve (`A = K`), and Newmark's FETI solves (`A = K + 4/h² M`); 0 for Newmark's
+    /// solve (`A = K`; with glues over the dofs off the glued interfaces, whose equations
+    /// hold only with the interface force), and Newmark's FETI solves (`A = K + 4/h² M`); 0 for Newmark's
     /// direct solves, exact to round-off.
     pub fn residual(&self) -> f64 {
         self.residual
@@ -541,6 +572,7 @@ impl MeshImplicit {
         match &self.solver {
             LinearSolve::Direct(c) => c.factor_nnz(),
             LinearSolve::Feti(f) => f.factor_nnz(),
+            LinearSolve::Glued(..) => 0,
         }
     }
 
@@ -548,7 +580,7 @@ impl MeshImplicit {
     pub fn feti(&self) -> Option<&Feti> {
         match &self.solver {
             LinearSolve::Feti(f) => Some(f),
-            LinearSolve::Direct(_) => None,
+            LinearSolve::Direct(_) | LinearSolve::Glued(..) => None,
         }
     }
 

@@ -30,6 +30,7 @@ pub mod common;
 pub mod mesh_assembly;
 pub mod mesh_dynamics;
 pub mod mesh_feti;
+pub mod mesh_glue;
 pub mod mesh_implicit;
 pub mod mesh_kernels;
 pub mod mesh_ties;
