@@ -110,7 +110,7 @@ impl<'a> Lowerer<'a> {
         let mut out = Props::default();
         for it in &block.items {
             match &it.kind {
-                ItemKind::Prop { key, values } => {
+                ItemKind::Prop { key, values, block } => {
                     let Some(k) = keys.iter().find(|k| k.name == key.name) else {
                         let names: Vec<&str> = keys
                             .iter()
@@ -161,6 +161,21 @@ impl<'a> Lowerer<'a> {
                             )
                             .primary(sc.file, it.span, "")
                             .help("separate values with commas"),
+                        );
+                        continue;
+                    }
+                    if let Some(b) = block {
+                        // (no property takes an options block yet)
+                        self.report(
+                            Diagnostic::error(
+                                codes::WRONG_KIND,
+                                format!("`{}` takes no options block", key.name),
+                            )
+                            .primary(sc.file, b.span, "")
+                            .help(format!(
+                                "remove the block after the values of `{}`",
+                                key.name
+                            )),
                         );
                         continue;
                     }

@@ -589,7 +589,7 @@ impl<'a> Lowerer<'a> {
         let mut ok = true;
         let mut seen: Vec<(&str, mbdc_dsl::ast::Span)> = Vec::new();
         for it in &block.items {
-            let ItemKind::Prop { key, values } = &it.kind else {
+            let ItemKind::Prop { key, values, .. } = &it.kind else {
                 self.report(
                     Diagnostic::error(
                         codes::UNKNOWN_METHOD_OPTION,
