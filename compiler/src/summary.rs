@@ -49,6 +49,8 @@ pub struct PartSummary {
     pub formulation: Option<String>,
     /// Meshes: the sets tied to bodies, as `SET → BODY`.
     pub tied: Vec<String>,
+    /// Meshes: the sets glued to other meshes' sets, as `SET → MESH.SET`.
+    pub glued: Vec<String>,
 }
 
 /// What `mbdc check` reports about a valid scene.
@@ -98,11 +100,12 @@ pub struct CheckSummary {
 }
 
 /// Names of bodies not connected to ground through joints, beams or meshes (a mesh
-/// connects the bodies tied to it, and to ground when it has fixed or displaced nodes).
+/// connects the bodies tied to it, the meshes glued to it, and ground when it has fixed or
+/// displaced nodes).
 pub fn free_bodies(scene: &Scene) -> Vec<usize> {
     let n = scene.bodies.len();
-    // Union-find over bodies + ground (index n).
-    let mut parent: Vec<usize> = (0..=n).collect();
+    // Union-find over bodies + ground (index n) + meshes (n + 1 + i).
+    let mut parent: Vec<usize> = (0..=n + scene.meshes.len()).collect();
     fn find(p: &mut [usize], mut i: usize) -> usize {
         while p[i] != i {
             p[i] = p[p[i]];
@@ -126,23 +129,22 @@ pub fn free_bodies(scene: &Scene) -> Vec<usize> {
             union(w[0], w[1], &mut parent);
         }
     }
-    for m in &scene.meshes {
-        let mut tied = m.conditions.iter().filter_map(|c| match c {
-            MeshCondition::Tie { body, .. } => Some(idx(BodyRef::Body(*body))),
-            _ => None,
-        });
-        let Some(first) = tied.next() else {
-            continue;
-        };
-        for b in tied {
-            union(first, b, &mut parent);
-        }
-        let held = m.conditions.iter().any(|c| {
-            matches!(c, MeshCondition::Fixed { .. })
-                || matches!(c, MeshCondition::Displacement { value, .. } if value.iter().any(Option::is_some))
-        });
-        if held {
-            union(first, n, &mut parent);
+    for (i, m) in scene.meshes.iter().enumerate() {
+        let me = n + 1 + i;
+        for c in &m.conditions {
+            match c {
+                MeshCondition::Tie { body, .. } => {
+                    union(me, idx(BodyRef::Body(*body)), &mut parent)
+                }
+                MeshCondition::Glue { mesh, .. } if *mesh < scene.meshes.len() => {
+                    union(me, n + 1 + mesh, &mut parent)
+                }
+                MeshCondition::Fixed { .. } => union(me, n, &mut parent),
+                MeshCondition::Displacement { value, .. } if value.iter().any(Option::is_some) => {
+                    union(me, n, &mut parent)
+                }
+                _ => {}
+            }
         }
     }
     let g = find(&mut parent, n);
@@ -363,6 +365,7 @@ pub fn summary(scene: &Scene) -> CheckSummary {
                 sets: b.attachments.len(),
                 formulation: None,
                 tied: Vec::new(),
+                glued: Vec::new(),
             })
             .collect(),
         meshes: scene
@@ -387,6 +390,29 @@ pub fn summary(scene: &Scene) -> CheckSummary {
                             m.node_sets.get(*set).map_or("?", |s| s.name.as_str()),
                             scene.bodies.get(*body).map_or("?", |b| b.name.as_str())
                         )),
+                        _ => None,
+                    })
+                    .collect(),
+                glued: m
+                    .conditions
+                    .iter()
+                    .filter_map(|c| match c {
+                        MeshCondition::Glue {
+                            set,
+                            mesh,
+                            other_set,
+                            ..
+                        } => {
+                            let other = scene.meshes.get(*mesh);
+                            Some(format!(
+                                "{} → {}.{}",
+                                m.node_sets.get(*set).map_or("?", |s| s.name.as_str()),
+                                other.map_or("?", |o| o.name.as_str()),
+                                other
+                                    .and_then(|o| o.node_sets.get(*other_set))
+                                    .map_or("?", |s| s.name.as_str())
+                            ))
+                        }
                         _ => None,
                     })
                     .collect(),
@@ -554,6 +580,9 @@ impl fmt::Display for CheckSummary {
             )?;
             if !m.tied.is_empty() {
                 write!(f, "; tied: {}", m.tied.join(", "))?;
+            }
+            if !m.glued.is_empty() {
+                write!(f, "; glued: {}", m.glued.join(", "))?;
             }
             writeln!(f)?;
         }

@@ -654,6 +654,496 @@ fn ties_name_their_body_and_warn_with_small_strain() {
     );
 }
 
+/// Two quad4 meshes side by side along x = 1 m, `coarse` (2×2, fixed on the left) then
+/// `fine` (3×3), with extra lines in each and the given `simulate` options.
+fn glued(coarse: &str, fine: &str, simulate: &str) -> String {
+    format!(
+        "model t {{
+  material alu {{ E 70 GPa; nu 0.33; rho 2700 kg/m^3 }}
+  mesh coarse {{
+    element quad4
+    thickness 1 cm
+    generate rect(origin: (0, 0) m, size: (1, 1) m, divisions: (2, 2))
+    material alu
+    set left = nodes(x == 0)
+    set right = nodes(x == 1 m)
+    fix left
+    {coarse}
+  }}
+  mesh fine {{
+    element quad4
+    thickness 1 cm
+    generate rect(origin: (1, 0) m, size: (1, 1) m, divisions: (3, 3))
+    material alu
+    set left = nodes(x == 1 m)
+    set right = nodes(x == 2 m)
+    {fine}
+  }}
+  simulate {{ duration 1 s; step 1 s; {simulate} }}
+}}
+"
+    )
+}
+
+/// The errors of a load, each as (message, help, the text under each label).
+fn error_texts(src: &str) -> Vec<(String, String, Vec<String>)> {
+    let l = load_str("t.mbd", src, &[]);
+    assert!(l.has_errors(), "expected errors in\n{src}");
+    l.errors()
+        .map(|d| {
+            let labels = d
+                .labels
+                .iter()
+                .map(|lb| l.sources.text(lb.file)[lb.span.start..lb.span.end].to_string())
+                .collect();
+            (
+                d.message.clone(),
+                d.help.clone().unwrap_or_default(),
+                labels,
+            )
+        })
+        .collect()
+}
+
+/// The one error of a load, as in [`error_texts`].
+fn one_error(src: &str) -> (String, String, Vec<String>) {
+    let mut e = error_texts(src);
+    assert_eq!(e.len(), 1, "{e:#?}");
+    e.remove(0)
+}
+
+/// `glue SET, MESH.SET` lowers to a glue with this mesh's set, the other mesh's index and
+/// set, and the default traction `bessel(points: 5)`; `{ traction ... }` chooses it. A mesh
+/// may glue to one declared after it or before it. `mbdc check`'s summary lists the glues.
+#[test]
+fn glues_lower_with_their_sets_mesh_and_traction() {
+    use mbdc_runtime::scene::GlueTraction;
+    let glue = |traction: GlueTraction| MeshCondition::Glue {
+        set: 1,
+        mesh: 1,
+        other_set: 0,
+        traction,
+    };
+    let st = "mesh_method static";
+    // forward: `coarse` glues to `fine`, declared after it
+    let s = scene(&glued("glue right, fine.left", "", st));
+    assert_eq!(
+        s.meshes[0].conditions,
+        vec![
+            MeshCondition::Fixed { set: 0 },
+            glue(GlueTraction::Bessel { points: 5 })
+        ]
+    );
+    assert_eq!(GlueTraction::default(), GlueTraction::Bessel { points: 5 });
+    assert!(s.meshes[1].conditions.is_empty());
+    for (opts, t) in [
+        (
+            "{ traction polynomial(degree: 2) }",
+            GlueTraction::Polynomial { degree: 2 },
+        ),
+        (
+            "{ traction polynomial(degree: 0) }",
+            GlueTraction::Polynomial { degree: 0 },
+        ),
+        (
+            "{ traction polynomial(degree: 10) }",
+            GlueTraction::Polynomial { degree: 10 },
+        ),
+        (
+            "{ traction bessel(points: 8) }",
+            GlueTraction::Bessel { points: 8 },
+        ),
+        (
+            "{ traction bessel(points: 1) }",
+            GlueTraction::Bessel { points: 1 },
+        ),
+        (
+            "{ traction bessel(points: 2 * 32) }",
+            GlueTraction::Bessel { points: 64 },
+        ),
+        ("{}", GlueTraction::Bessel { points: 5 }),
+        (
+            "{\n // a comment\n traction bessel(points: 3)\n }",
+            GlueTraction::Bessel { points: 3 },
+        ),
+    ] {
+        let s = scene(&glued(&format!("glue right, fine.left {opts}"), "", st));
+        assert_eq!(s.meshes[0].conditions[1], glue(t), "{opts}");
+    }
+    // backward: `fine` glues to `coarse`, declared before it
+    let s = scene(&glued(
+        "",
+        "glue left, coarse.right { traction polynomial(degree: 1) }",
+        st,
+    ));
+    assert_eq!(
+        s.meshes[1].conditions,
+        vec![MeshCondition::Glue {
+            set: 0,
+            mesh: 0,
+            other_set: 1,
+            traction: GlueTraction::Polynomial { degree: 1 }
+        }]
+    );
+    // One set glued to two sets; a glued set may share nodes with a fixed set (the
+    // interface's end on a clamped edge).
+    let s = scene(&glued(
+        "set bottom = nodes(y == 0)\n fix bottom\n glue right, fine.left",
+        "set top = nodes(y == 1 m)\n glue right, coarse.right\n glue top, coarse.right",
+        st,
+    ));
+    assert_eq!(s.meshes[1].conditions.len(), 2);
+    let text = mbdc_compiler::summary(&s).to_string();
+    assert!(
+        text.contains("; glued: right → fine.left\n")
+            && text.contains("; glued: right → coarse.right, top → coarse.right\n"),
+        "{text}"
+    );
+    // Inside a component, the names resolve in the instance.
+    let src = "component Pair() {
+  mesh a {
+    element tri3; thickness 1 cm; material alu
+    generate rect(origin: (0, 0) m, size: (1, 1) m, divisions: (1, 1))
+    set r = nodes(x == 1 m)
+    glue r, b.l
+  }
+  mesh b {
+    element tri3; thickness 1 cm; material alu
+    generate rect(origin: (1, 0) m, size: (1, 1) m, divisions: (2, 2))
+    set l = nodes(x == 1 m)
+    set r = nodes(x == 2 m)
+    fix r
+  }
+}
+model t {
+  material alu { E 70 GPa; nu 0.33; rho 2700 kg/m^3 }
+  instance p = Pair()
+  instance q = Pair()
+  simulate { duration 1 s; step 1 s; mesh_method static }
+}
+";
+    let s = scene(src);
+    let names: Vec<&str> = s.meshes.iter().map(|m| m.name.as_str()).collect();
+    assert_eq!(names, ["p.a", "p.b", "q.a", "q.b"]);
+    assert!(matches!(
+        s.meshes[2].conditions[0],
+        MeshCondition::Glue {
+            set: 0,
+            mesh: 3,
+            other_set: 0,
+            ..
+        }
+    ));
+}
+
+/// Each mistake in a glue is an error at the words that are wrong, with a help line.
+#[test]
+fn glue_errors_name_what_is_wrong() {
+    let st = "mesh_method static";
+    let e = |coarse: &str, fine: &str| one_error(&glued(coarse, fine, st));
+    let s = |x: &str| x.to_string();
+    // unknown mesh, with a suggestion (the meshes may be declared later)
+    assert_eq!(
+        e("glue right, fien.left", ""),
+        (
+            s("unknown mesh `fien`"),
+            s("did you mean `fine`?"),
+            vec![s("fien")]
+        )
+    );
+    // unknown set of this mesh, and of the other mesh
+    assert_eq!(
+        e("glue rigth, fine.left", ""),
+        (
+            s("unknown set `rigth`"),
+            s("did you mean `right`?"),
+            vec![s("rigth")]
+        )
+    );
+    assert_eq!(
+        e("glue right, fine.lft", ""),
+        (
+            s("unknown set `lft` in mesh `fine`"),
+            s("did you mean `left`?"),
+            vec![s("lft")]
+        )
+    );
+    assert_eq!(
+        e("", "glue left, coarse.middle").1,
+        "sets of mesh `coarse`: left, right"
+    );
+    // a mesh glued to itself
+    let (m, h, l) = e("glue right, coarse.left", "");
+    assert_eq!(
+        (m.as_str(), l),
+        ("a mesh cannot be glued to itself", vec![s("coarse")])
+    );
+    assert!(h.contains("another mesh"), "{h}");
+    // not `MESH.SET`
+    let (m, h, l) = e("glue right, fine", "");
+    assert_eq!(
+        (m.as_str(), h.as_str(), l),
+        (
+            "a set is glued to a set of another mesh: `glue SET, MESH.SET`",
+            "name the other mesh and its set, e.g. `glue left, other.left`",
+            vec![s("fine")]
+        )
+    );
+    // a set without boundary edges, on either side
+    assert_eq!(
+        e("set c = nodes(x == 1 m and y == 0)\n glue c, fine.left", "").0,
+        "set `c` contains no boundary edge"
+    );
+    let (m, _, l) = e("glue right, fine.c", "set c = nodes(x == 1 m and y == 0)");
+    assert_eq!(
+        (m.as_str(), l),
+        (
+            "set `c` of mesh `fine` contains no boundary edge",
+            vec![s("c")]
+        )
+    );
+    // the traction: its kind, its argument, its range
+    let t = |opts: &str| e(&format!("glue right, fine.left {{ {opts} }}"), "");
+    assert_eq!(
+        t("traction linear(degree: 1)"),
+        (
+            s("unknown glue traction `linear`"),
+            s("a glue's traction is `polynomial(degree: P)` or `bessel(points: N)`"),
+            vec![s("linear")]
+        )
+    );
+    assert_eq!(
+        t("traction besel(points: 4)").1,
+        "did you mean `bessel`? a glue's traction is `polynomial(degree: P)` or `bessel(points: N)`"
+    );
+    assert_eq!(
+        t("traction 3").0,
+        "a glue's traction is `polynomial(degree: P)` or `bessel(points: N)`"
+    );
+    let errs = error_texts(&glued(
+        "glue right, fine.left { traction polynomial(2) }",
+        "",
+        st,
+    ));
+    assert!(
+        errs.iter()
+            .any(|e| e.0 == "`polynomial` takes 0 positional arguments"
+                && e.1 == "other arguments are named: `degree:`"
+                && e.2 == [s("2")]),
+        "{errs:#?}"
+    );
+    let (m, h, l) = t("traction polynomial(degree: 11)");
+    assert_eq!(
+        (m.as_str(), l),
+        (
+            "the degree of a polynomial traction must lie in 0 to 10, found 11",
+            vec![s("11")]
+        )
+    );
+    assert!(h.contains("bessel(points: N)"), "{h}");
+    assert_eq!(
+        t("traction polynomial(degree: -1)").0,
+        "the degree of a polynomial traction must lie in 0 to 10, found -1"
+    );
+    let (m, _, l) = t("traction bessel(points: 0)");
+    assert_eq!(
+        (m.as_str(), l),
+        (
+            "the number of points of a Bessel traction must lie in 1 to 64, found 0",
+            vec![s("0")]
+        )
+    );
+    assert_eq!(
+        t("traction bessel(points: 65)").0,
+        "the number of points of a Bessel traction must lie in 1 to 64, found 65"
+    );
+    assert_eq!(
+        t("traction bessel(points: 2.5)").0,
+        "the number of points of a Bessel traction must be an integer, found 2.5"
+    );
+    let (_, h, l) = t("traction bessel(points: 3 m)");
+    assert_eq!(
+        (h.as_str(), l),
+        (
+            "the number of points of a Bessel traction is a plain number",
+            vec![s("3 m")]
+        )
+    );
+    let (m, h, l) = t("tracton bessel(points: 3)");
+    assert_eq!(
+        (m.as_str(), l),
+        (
+            "unknown property `tracton` in the options of `glue`",
+            vec![s("tracton")]
+        )
+    );
+    assert!(h.starts_with("did you mean `traction`?"), "{h}");
+    // `bessel` has no `degree`: the argument is unknown, and `points` is missing
+    let errs = error_texts(&glued(
+        "glue right, fine.left { traction bessel(degree: 3) }",
+        "",
+        st,
+    ));
+    let mut msgs: Vec<&str> = errs.iter().map(|e| e.0.as_str()).collect();
+    msgs.sort_unstable();
+    assert_eq!(
+        msgs,
+        [
+            "`bessel` has no argument `degree`",
+            "`bessel` needs the argument `points:`"
+        ]
+    );
+    // only `glue` takes an options block
+    let (m, _, l) = e("load right, (1, 0) N { traction bessel(points: 3) }", "");
+    assert_eq!(
+        (m.as_str(), l),
+        (
+            "`load` takes no options block",
+            vec![s("{ traction bessel(points: 3) }")]
+        )
+    );
+    // a glued set whose every node is fixed or tied in its mesh, on either side
+    assert_eq!(
+        e("glue left, fine.left", ""),
+        (
+            s("set `left` of mesh `coarse` is glued and fixed"),
+            s("every node of `left` is fixed, which leaves the glue nothing to join: remove one of the two (a glued set may share some nodes with a held set, as where the interface meets a clamped edge)"),
+            vec![s("glue left, fine.left"), s("fix left")]
+        )
+    );
+    let (m, _, l) = e("glue right, fine.left", "fix left");
+    assert_eq!(
+        (m.as_str(), l),
+        (
+            "set `left` of mesh `fine` is glued and fixed",
+            vec![s("glue right, fine.left"), s("fix left")]
+        )
+    );
+    let (m, _, l) = e("displace right, (0, 1 mm)\n glue right, fine.left", "");
+    assert_eq!(
+        (m.as_str(), l),
+        (
+            "set `right` of mesh `coarse` is glued and displaced",
+            vec![s("glue right, fine.left"), s("displace right, (0, 1 mm)")]
+        )
+    );
+    let tied = glued("tie right, b\n glue right, fine.left", "", "").replace(
+        "  mesh coarse",
+        "  body b { mass 1 kg; inertia diag(1, 1, 1) g*m^2 }\n  mesh coarse",
+    );
+    let (m, _, l) = one_error(&tied);
+    assert_eq!(
+        (m.as_str(), l),
+        (
+            "set `right` of mesh `coarse` is glued and tied to body `b`",
+            vec![s("glue right, fine.left"), s("tie right, b")]
+        )
+    );
+    // the same pair twice, from one side or from both
+    let (m, h, l) = e(
+        "glue right, fine.left\n glue right, fine.left { traction polynomial(degree: 1) }",
+        "",
+    );
+    assert_eq!(
+        (m.as_str(), h.as_str(), l),
+        (
+            "`coarse.right` and `fine.left` are glued twice",
+            "a glue joins the two sets both ways: keep one `glue`",
+            vec![
+                s("glue right, fine.left { traction polynomial(degree: 1) }"),
+                s("glue right, fine.left")
+            ]
+        )
+    );
+    let (m, _, l) = e("glue right, fine.left", "glue left, coarse.right");
+    assert_eq!(
+        (m.as_str(), l),
+        (
+            "`fine.left` and `coarse.right` are glued twice",
+            vec![s("glue left, coarse.right"), s("glue right, fine.left")]
+        )
+    );
+    // `glue` takes two values; with one before a block it reads as a declaration
+    assert_eq!(e("glue right", "").0, "`glue` takes 2 values, found 1");
+    assert_eq!(
+        e("glue right { traction bessel(points: 3) }", ""),
+        (
+            s("`glue` is not allowed in mesh `coarse`"),
+            s("`glue` is a property of mesh `coarse`: its values are separated by commas, without `=`, and its block follows its values"),
+            vec![s("glue right { traction bessel(points: 3) }")]
+        )
+    );
+}
+
+/// Glues are analysed by `mesh_method static` with the direct solver, on 2-D meshes: other
+/// choices are errors at the `glue`.
+#[test]
+fn glues_need_2d_meshes_static_and_the_direct_solver() {
+    let s = |x: &str| x.to_string();
+    let g = "glue right, fine.left";
+    // the default method, and newmark written
+    assert_eq!(
+        one_error(&glued(g, "", "")),
+        (
+            s("glued meshes are solved by `mesh_method static` for now; central_difference and newmark do not take glues yet"),
+            s("`central_difference` is the default: add `mesh_method static` to `simulate`"),
+            vec![s(g)]
+        )
+    );
+    assert_eq!(
+        one_error(&glued(g, "", "mesh_method newmark")),
+        (
+            s("glued meshes are solved by `mesh_method static` for now; central_difference and newmark do not take glues yet"),
+            s("use `mesh_method static`"),
+            vec![s(g), s("mesh_method newmark")]
+        )
+    );
+    // FETI
+    assert_eq!(
+        one_error(&glued(g, "", "mesh_method static; solver feti")),
+        (
+            s("FETI does not take glues yet: glued meshes are solved by the direct solver"),
+            s("remove `solver feti` (the direct solver is the default)"),
+            vec![s(g), s("solver feti")]
+        )
+    );
+    let (m, _, l) = one_error(&glued(
+        g,
+        "",
+        "mesh_method static\n solver feti { subdomains 2 }",
+    ));
+    assert!(m.starts_with("FETI does not take glues yet"), "{m}");
+    assert_eq!(l, vec![s(g), s("solver feti { subdomains 2 }")]);
+    // 3-D meshes, each named
+    let src = glued(g, "", "mesh_method static")
+        .replace("element quad4", "element hex8")
+        .replace("thickness 1 cm\n", "")
+        .replace(
+            "rect(origin: (0, 0) m, size: (1, 1) m, divisions: (2, 2))",
+            "box(origin: (0, 0, 0) m, size: (1, 1, 1) m, divisions: (2, 2, 2))",
+        )
+        .replace(
+            "rect(origin: (1, 0) m, size: (1, 1) m, divisions: (3, 3))",
+            "box(origin: (1, 0, 0) m, size: (1, 1, 1) m, divisions: (3, 3, 3))",
+        );
+    let errs = error_texts(&src);
+    assert_eq!(
+        errs,
+        vec![
+            (
+                s("glues join 2-D meshes for now: the interface is a line, and mesh `coarse` has hex8 elements"),
+                s("glue meshes of tri3 or quad4 elements"),
+                vec![s(g)]
+            ),
+            (
+                s("glues join 2-D meshes for now: the interface is a line, and mesh `fine` has hex8 elements"),
+                s("glue meshes of tri3 or quad4 elements"),
+                vec![s(g)]
+            ),
+        ]
+    );
+}
+
 #[test]
 fn beams_subdivide_and_attach() {
     let s = scene(&model(

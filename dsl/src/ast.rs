@@ -157,12 +157,17 @@ pub enum ItemKind {
         body: Option<Block>,
     },
     /// A property: `KEY expr, expr, ...` (possibly no values), e.g. `mass 1 kg`,
-    /// `inertia diag(1, 2, 3) kg*m^2`, `include bodies, energy`, `fix left`.
+    /// `inertia diag(1, 2, 3) kg*m^2`, `include bodies, energy`, `fix left`. A property with
+    /// two or more values may end with a block of options: `glue right, fine.left {
+    /// traction bessel(points: 8) }` (`KEY NAME { ... }` is a declaration).
     Prop {
         /// The key.
         key: Ident,
         /// Values (comma-separated in the source).
         values: Vec<Expr>,
+        /// The options block after the values, if any (only after two or more values: a
+        /// tree with a block after fewer does not format to text that parses back to it).
+        block: Option<Block>,
     },
 }
 

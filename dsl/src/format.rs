@@ -12,7 +12,8 @@ pub const MAX_WIDTH: usize = 100;
 ///
 /// * Two spaces of indentation per block level; one item per line; `{` on the line of its
 ///   item, `}` on its own line; an empty block without comments is `{}`.
-/// * A block is printed on one line, `{ a 1; b 2 }`, when all its items are properties, it
+/// * A block is printed on one line, `{ a 1; b 2 }`, when all its items are properties
+///   without a block of their own (a property's options block is laid out like any block), it
 ///   has no comments and no blank lines between its items, and the whole line fits in
 ///   [`MAX_WIDTH`] columns (the item's own trailing comment is not counted).
 /// * Blank lines of the source are kept where they separate two items, comments or an item
@@ -69,6 +70,7 @@ fn has_block(item: &Item) -> bool {
     match &item.kind {
         ItemKind::Component { .. } | ItemKind::For { .. } | ItemKind::If { .. } => true,
         ItemKind::Decl { body, .. } => body.is_some(),
+        ItemKind::Prop { block, .. } => block.is_some(),
         _ => false,
     }
 }
@@ -214,7 +216,13 @@ impl Fmt {
                     self.block(b, level);
                 }
             }
-            ItemKind::Prop { .. } => write_prop(&mut self.out, item),
+            ItemKind::Prop { block, .. } => {
+                write_prop(&mut self.out, item);
+                if let Some(b) = block {
+                    self.out.push(' ');
+                    self.block(b, level);
+                }
+            }
         }
     }
 
@@ -326,7 +334,7 @@ fn inline_block(block: &Block) -> Option<String> {
             // the author grouped the properties: keep the lines
             return None;
         }
-        if !matches!(item.kind, ItemKind::Prop { .. }) {
+        if !matches!(item.kind, ItemKind::Prop { block: None, .. }) {
             return None;
         }
         if i > 0 {
@@ -342,7 +350,7 @@ fn inline_block(block: &Block) -> Option<String> {
 }
 
 fn write_prop(out: &mut String, item: &Item) {
-    if let ItemKind::Prop { key, values } = &item.kind {
+    if let ItemKind::Prop { key, values, .. } = &item.kind {
         out.push_str(&key.name);
         for (i, v) in values.iter().enumerate() {
             out.push_str(if i == 0 { " " } else { ", " });

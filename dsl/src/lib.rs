@@ -30,6 +30,9 @@
 //! * No space is allowed between a name and the `(` of a call, the `[` of an index, or the
 //!   `.` of a member access: `sin(x)`, `link[i]`, `arm.upper`. (`position (0, 0, 1)` is a
 //!   property with a tuple value.)
+//! * A block may follow a property's values only when it has two or more
+//!   (`glue right, fine.left { traction bessel(points: 8) }`): `KEY NAME { ... }` is a
+//!   declaration, and after one value a `{` is reported as a misplaced block.
 //! * Comments directly above an item, or inside its header, become its
 //!   [`ast::Item::comments`]; a comment on the same line after it is its
 //!   [`ast::Item::trailing_comment`]; comments after the last item of a block or file trail

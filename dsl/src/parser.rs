@@ -670,15 +670,24 @@ impl<'t> Builder<'t> {
     fn prop_item(&mut self, mut parts: Parts<'_>) -> Res<(ItemKind, u32)> {
         let key = ident_of(&parts.next("key")?)?;
         let mut values = Vec::new();
+        let mut block = None;
         let mut height = 0;
         while let Some(p) = parts.try_next() {
-            if p.as_rule() == Rule::expr {
-                let (e, h) = self.expr(p)?;
-                height = height.max(h);
-                values.push(e);
+            match p.as_rule() {
+                Rule::expr => {
+                    let (e, h) = self.expr(p)?;
+                    height = height.max(h);
+                    values.push(e);
+                }
+                Rule::block => {
+                    let (b, h) = self.block(p)?;
+                    height = height.max(h);
+                    block = Some(b);
+                }
+                _ => {}
             }
         }
-        Ok((ItemKind::Prop { key, values }, height))
+        Ok((ItemKind::Prop { key, values, block }, height))
     }
 
     fn name(&mut self, pair: Pair<'_, Rule>) -> Res<(Name, u32)> {
@@ -1364,6 +1373,7 @@ fn item_blocks(kind: &mut ItemKind) -> Vec<&mut Block> {
     match kind {
         ItemKind::Component { body, .. } | ItemKind::For { body, .. } => vec![body],
         ItemKind::Decl { body, .. } => body.iter_mut().collect(),
+        ItemKind::Prop { block, .. } => block.iter_mut().collect(),
         ItemKind::If {
             then, otherwise, ..
         } => {
@@ -1806,7 +1816,7 @@ fn explain_pest_error(err: pest::error::Error<Rule>, text: &str, expr_mode: bool
             help =
                 Some("write numbers with a digit after the point, e.g. `5.0`, or none: `5`".into());
         } else if c == Some(b'{') {
-            help = Some("a block can only follow a declaration `KEYWORD NAME` or `KEYWORD NAME = VALUE`, or a property-free `KEYWORD`; check the words before `{`".into());
+            help = Some("a block can only follow a declaration `KEYWORD NAME` or `KEYWORD NAME = VALUE`, a property-free `KEYWORD`, or two or more values of a property (`glue a, m.b { ... }`); check the words before `{`".into());
         } else if c == Some(b'=') {
             help =
                 Some("a declaration is `KEYWORD NAME = VALUE`; `=` cannot follow a value".into());

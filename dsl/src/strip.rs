@@ -109,10 +109,17 @@ fn items(its: &mut [Item]) {
                     block(b);
                 }
             }
-            ItemKind::Prop { key, values } => {
+            ItemKind::Prop {
+                key,
+                values,
+                block: b,
+            } => {
                 ident(key);
                 for v in values {
                     expr(v);
+                }
+                if let Some(b) = b {
+                    block(b);
                 }
             }
         }

@@ -13,7 +13,11 @@ fn only_item(src: &str) -> Item {
 
 fn prop(src: &str) -> (String, Vec<String>) {
     match only_item(src).kind {
-        ItemKind::Prop { key, values } => (key.name, values.iter().map(common::sexpr).collect()),
+        ItemKind::Prop {
+            key,
+            values,
+            block: None,
+        } => (key.name, values.iter().map(common::sexpr).collect()),
         other => panic!("not a property: {other:?}"),
     }
 }
@@ -327,6 +331,48 @@ fn properties_with_zero_one_and_many_values() {
     assert_eq!(prop("position(0, 0, 1)").1, ["(tuple 0 0 1)"]);
     assert_eq!(prop("fix link[2]").1, ["(index link 2)"]);
     assert_eq!(prop("single_stage false").1, ["false"]);
+}
+
+#[test]
+fn a_property_may_end_with_an_options_block() {
+    let it = only_item("glue right, fine.left { traction bessel(points: 8) }");
+    let ItemKind::Prop {
+        key,
+        values,
+        block: Some(b),
+    } = it.kind
+    else {
+        panic!("not a property with a block: {:?}", it.kind);
+    };
+    assert_eq!(key.name, "glue");
+    let values: Vec<String> = values.iter().map(common::sexpr).collect();
+    assert_eq!(values, ["right", "(. fine left)"]);
+    assert_eq!(b.items.len(), 1);
+    assert!(
+        matches!(&b.items[0].kind, ItemKind::Prop { key, block: None, .. } if key.name == "traction")
+    );
+    // Over several lines, with a comment inside, and an empty block.
+    let f =
+        parse_ok("glue a, m.b {\n  // why\n  traction polynomial(degree: 2)\n}\nglue a, m.c {}\n");
+    assert_eq!(f.items.len(), 2);
+    match &f.items[0].kind {
+        ItemKind::Prop { block: Some(b), .. } => {
+            assert_eq!(b.items[0].comments[0].text, "// why");
+        }
+        other => panic!("{other:?}"),
+    }
+    assert!(
+        matches!(&f.items[1].kind, ItemKind::Prop { block: Some(b), .. } if b.items.is_empty())
+    );
+    // With one plain name before the block it is a declaration, as always; after one
+    // value of another form a block is an error.
+    assert!(matches!(
+        only_item("glue right { a 1 }").kind,
+        ItemKind::Decl { .. }
+    ));
+    assert!(mbdc_dsl::parse("glue m.b { a 1 }").is_err());
+    // The block starts on the line of the property.
+    assert!(mbdc_dsl::parse("glue a, m.b\n{ traction x }").is_err());
 }
 
 #[test]

@@ -86,6 +86,18 @@ fn blocks_with_declarations_or_comments_are_printed_on_several_lines() {
 }
 
 #[test]
+fn a_property_with_an_options_block_is_laid_out_like_a_declaration() {
+    assert_eq!(
+        fmt("mesh a {glue  r,fine.l{traction bessel( points:8 )}\nglue r,m.x{}\nfix r}"),
+        "mesh a {\n  glue r, fine.l { traction bessel(points: 8) }\n  glue r, m.x {}\n  fix r\n}\n"
+    );
+    assert_eq!(
+        fmt("glue r, m.l {\n  // why\n  traction polynomial(degree: 2)\n}"),
+        "glue r, m.l {\n  // why\n  traction polynomial(degree: 2)\n}\n"
+    );
+}
+
+#[test]
 fn empty_blocks() {
     assert_eq!(fmt("simulate {\n\n}"), "simulate {}\n");
     assert_eq!(fmt("simulate { // later\n}"), "simulate {\n  // later\n}\n");

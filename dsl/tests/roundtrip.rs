@@ -337,8 +337,11 @@ fn item_kind(inner: BoxedStrategy<Item>) -> impl Strategy<Value = ItemKind> {
         }),
         (name(), expr()).prop_map(|(name, value)| ItemKind::Param { name, value }),
         (name(), expr()).prop_map(|(name, value)| ItemKind::Const { name, value }),
-        (name(), prop::collection::vec(expr(), 0..4))
-            .prop_map(|(key, values)| ItemKind::Prop { key, values }),
+        (name(), prop::collection::vec(expr(), 0..4)).prop_map(|(key, values)| ItemKind::Prop {
+            key,
+            values,
+            block: None
+        }),
         (name(), decl_name(), expr()).prop_map(|(keyword, n, v)| ItemKind::Decl {
             keyword,
             name: Some(n),
@@ -392,12 +395,20 @@ fn item_kind(inner: BoxedStrategy<Item>) -> impl Strategy<Value = ItemKind> {
         2 => (name(), prop::option::of(decl_name()), prop::option::of(expr()), blk()).prop_map(
             |(keyword, name, value, body)| ItemKind::Decl { keyword, name, value, body: Some(body) }
         ),
+        // An options block after two or more values (`KEY NAME { ... }` is a declaration).
+        1 => (name(), prop::collection::vec(expr(), 2..4), blk()).prop_map(
+            |(key, values, b)| ItemKind::Prop { key, values, block: Some(b) }
+        ),
     ]
 }
 
 fn item() -> impl Strategy<Value = Item> {
-    let leaf_item = (name(), prop::collection::vec(expr(), 0..3))
-        .prop_map(|(key, values)| ItemKind::Prop { key, values });
+    let leaf_item =
+        (name(), prop::collection::vec(expr(), 0..3)).prop_map(|(key, values)| ItemKind::Prop {
+            key,
+            values,
+            block: None,
+        });
     let wrap = |kind: BoxedStrategy<ItemKind>| {
         (
             prop::option::weighted(0.3, comments(2)),

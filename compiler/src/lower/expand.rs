@@ -638,7 +638,7 @@ impl<'a> Lowerer<'a> {
                         depth,
                     );
                 }
-                ItemKind::Prop { key, values } => {
+                ItemKind::Prop { key, values, .. } => {
                     if !self.count_item(sc.file, it.span) {
                         return;
                     }

@@ -1,22 +1,24 @@
 //! Finite-element meshes: generation (structured rectangles and boxes), Gmsh import,
-//! node sets, boundary conditions and loads, and ties of node sets to bodies.
+//! node sets, boundary conditions and loads, ties of node sets to bodies, and glues of node
+//! sets to other meshes' sets (resolved once every mesh is lowered, so that a mesh may glue
+//! to one declared after it).
 
 use std::collections::HashMap;
 
-use mbdc_dsl::ast::{Expr, ExprKind, ItemKind, Span};
+use mbdc_dsl::ast::{Block, Expr, ExprKind, ItemKind, Span};
 use mbdc_runtime::scene::{
-    BodyRef, ElementKind, Fn1, HourglassControl, Mesh, MeshCondition, MeshFormulation,
-    MeshIntegration, MeshKinematics, NodeSet, Vec3,
+    BodyRef, ElementKind, Fn1, GlueTraction, HourglassControl, Mesh, MeshCondition,
+    MeshFormulation, MeshIntegration, MeshKinematics, NodeSet, Vec3,
 };
 
 use super::body::num;
 use super::eval::ident_of;
 use super::msh;
-use super::props::{one, req, Key};
-use super::{Lowerer, PDecl, Reported, Scope, R};
+use super::props::{one, req, Key, Prop};
+use super::{EntKind, Lowerer, PDecl, Reported, Scope, R};
 use crate::diag::{codes, Diagnostic};
 use crate::env::BindKind;
-use crate::source::Sources;
+use crate::source::{FileId, Sources};
 use crate::units::Dim;
 use crate::value::{Value, Q};
 
@@ -73,7 +75,39 @@ const MESH_KEYS: &[Key] = &[
         max: 2,
         repeat: true,
     },
+    Key {
+        name: "glue",
+        min: 2,
+        max: 2,
+        repeat: true,
+    },
 ];
+
+/// Highest degree of a glue's `traction polynomial(degree: P)` (the monomial basis is
+/// ill-conditioned beyond: κ(B̄B̄ᵀ) ≈ 10¹³ at ten terms).
+pub const MAX_GLUE_DEGREE: i64 = 10;
+
+/// Most points of a glue's `traction bessel(points: N)`.
+pub const MAX_GLUE_POINTS: i64 = 64;
+
+/// A `glue SET, MESH.SET` of a lowered mesh, kept for [`Lowerer::resolve_glues`] (which
+/// looks up the other set once every mesh is lowered) and for the checks of the analysis
+/// (`check_glues`), which need its span.
+#[derive(Clone, Debug)]
+pub(crate) struct GlueSite {
+    /// The mesh that writes the glue (index in declaration order, as in `Scene::meshes`).
+    pub mesh: usize,
+    /// The glue's index among that mesh's conditions.
+    pub condition: usize,
+    /// The other mesh.
+    pub other_mesh: usize,
+    /// The other set's name as written, and where (the `SET` of `MESH.SET`).
+    pub other_set: String,
+    pub other_set_span: Span,
+    /// The whole `glue` item, and its file.
+    pub span: Span,
+    pub file: FileId,
+}
 
 const ELEMENT_KINDS: &[&str] = &["bar2", "tri3", "quad4", "tet4", "hex8"];
 
@@ -427,12 +461,42 @@ impl<'a> Lowerer<'a> {
         let mut conditions = Vec::new();
         let mut spans = Vec::new();
         let mut body_force_seen = false;
+        // (registered in expansion, so always found)
+        let this = self.entities.get(&d.name).map_or(usize::MAX, |e| e.index);
         for p in &props.list {
             let key = p.key.name.as_str();
             if !matches!(
                 key,
-                "fix" | "displace" | "load" | "traction" | "body_force" | "foundation" | "tie"
+                "fix"
+                    | "displace"
+                    | "load"
+                    | "traction"
+                    | "body_force"
+                    | "foundation"
+                    | "tie"
+                    | "glue"
             ) {
+                continue;
+            }
+            if key == "glue" {
+                match self.glue(p, sc, &sets, kind, this) {
+                    Ok((c, other_set, other_set_span)) => {
+                        if let MeshCondition::Glue { mesh, .. } = c {
+                            self.glues.push(GlueSite {
+                                mesh: this,
+                                condition: conditions.len(),
+                                other_mesh: mesh,
+                                other_set,
+                                other_set_span,
+                                span: p.span,
+                                file: sc.file,
+                            });
+                        }
+                        conditions.push(c);
+                        spans.push(p.span);
+                    }
+                    Err(_) => ok = false,
+                }
                 continue;
             }
             let r = self.condition(key, p.values, sc, &sets, kind);
@@ -460,6 +524,7 @@ impl<'a> Lowerer<'a> {
         if !ok {
             return Err(Reported);
         }
+        self.mesh_condition_spans.insert(this, (sc.file, spans));
         Ok(Mesh {
             name: d.name.clone(),
             kind,
@@ -1375,22 +1440,8 @@ impl<'a> Lowerer<'a> {
             return Ok(MeshCondition::BodyForce { value: v });
         }
         let set = self.set_ref(&values[0], sc, sets)?;
-        let need_faces = matches!(key, "traction" | "foundation");
-        if need_faces && sets[set].faces.is_empty() {
-            return Err(self.report(
-                Diagnostic::error(
-                    codes::MESH,
-                    format!(
-                        "set `{}` contains no boundary {}",
-                        sets[set].name,
-                        if kind.dim() == 2 { "edge" } else { "face" }
-                    ),
-                )
-                .primary(sc.file, values[0].span, "")
-                .help(format!(
-                    "`{key}` acts on the element faces whose nodes all belong to the set"
-                )),
-            ));
+        if matches!(key, "traction" | "foundation") {
+            self.boundary_set(key, &values[0], sc, &sets[set], kind)?;
         }
         match key {
             "fix" => Ok(MeshCondition::Fixed { set }),
@@ -1462,6 +1513,352 @@ impl<'a> Lowerer<'a> {
                 let m = self.positive(&values[1], sc, Dim::FOUNDATION, "a foundation modulus")?;
                 Ok(MeshCondition::Foundation { set, modulus: m })
             }
+        }
+    }
+
+    /// An error unless `set` (written at `e`) holds a boundary edge (2-D) or face of the
+    /// mesh, which `key` acts on.
+    fn boundary_set(
+        &mut self,
+        key: &str,
+        e: &Expr,
+        sc: &Scope,
+        set: &NodeSet,
+        kind: ElementKind,
+    ) -> R<()> {
+        if !set.faces.is_empty() {
+            return Ok(());
+        }
+        let (face, faces) = if kind.dim() == 2 {
+            ("edge", "edges")
+        } else {
+            ("face", "faces")
+        };
+        Err(self.report(
+            Diagnostic::error(
+                codes::MESH,
+                format!("set `{}` contains no boundary {face}", set.name),
+            )
+            .primary(sc.file, e.span, "")
+            .help(format!(
+                "`{key}` acts on the element {faces} whose nodes all belong to the set"
+            )),
+        ))
+    }
+
+    /// `glue SET, MESH.SET [{ traction polynomial(degree: P) | bessel(points: N) }]` in the
+    /// mesh of index `this`: the condition with this mesh's set (which must hold boundary
+    /// edges) and the other mesh's index (it may be declared later), and the other set's
+    /// name and span, looked up by [`Lowerer::resolve_glues`] once every mesh is lowered
+    /// (`other_set` is `usize::MAX` until then). The traction defaults to
+    /// [`GlueTraction::default`].
+    fn glue(
+        &mut self,
+        p: &Prop<'a>,
+        sc: &Scope,
+        sets: &[NodeSet],
+        kind: ElementKind,
+        this: usize,
+    ) -> R<(MeshCondition, String, Span)> {
+        let set = self.set_ref(&p.values[0], sc, sets).and_then(|i| {
+            self.boundary_set("glue", &p.values[0], sc, &sets[i], kind)
+                .map(|_| i)
+        });
+        let other = self.glue_other(&p.values[1], sc, this, sets);
+        let traction = self.glue_traction(p.block, sc);
+        let (set, (mesh, other_set, other_set_span), traction) = (set?, other?, traction?);
+        Ok((
+            MeshCondition::Glue {
+                set,
+                mesh,
+                other_set: usize::MAX,
+                traction,
+            },
+            other_set,
+            other_set_span,
+        ))
+    }
+
+    /// The `MESH.SET` of a glue: the mesh's index (any mesh but `this`), the set's name and
+    /// its span.
+    fn glue_other(
+        &mut self,
+        e: &Expr,
+        sc: &Scope,
+        this: usize,
+        sets: &[NodeSet],
+    ) -> R<(usize, String, Span)> {
+        let ExprKind::Member { base, member } = &e.kind else {
+            let example = sets.first().map_or("left", |s| s.name.as_str());
+            return Err(self.report(
+                Diagnostic::error(
+                    codes::WRONG_KIND,
+                    "a set is glued to a set of another mesh: `glue SET, MESH.SET`",
+                )
+                .primary(sc.file, e.span, "expected `MESH.SET`")
+                .help(format!(
+                    "name the other mesh and its set, e.g. `glue {example}, other.{example}`"
+                )),
+            ));
+        };
+        let v = self.eval(base, sc)?;
+        let mesh = match &v {
+            Value::Name(n) => self.resolve(n, EntKind::Mesh)?,
+            other => {
+                return Err(self.report(
+                    Diagnostic::error(
+                        codes::WRONG_KIND,
+                        format!("expected the name of a mesh, found {}", other.kind()),
+                    )
+                    .primary(sc.file, base.span, "not a mesh name"),
+                ))
+            }
+        };
+        if mesh == this {
+            return Err(self.report(
+                Diagnostic::error(codes::MESH, "a mesh cannot be glued to itself")
+                    .primary(sc.file, base.span, "the mesh of this `glue`")
+                    .help("a glue joins a set of this mesh to a set of another mesh; the elements of one mesh are joined already"),
+            ));
+        }
+        Ok((mesh, member.name.clone(), member.span))
+    }
+
+    /// The options block of a glue: `traction polynomial(degree: P)` (P an integer in
+    /// 0..=[`MAX_GLUE_DEGREE`]) or `traction bessel(points: N)` (N in
+    /// 1..=[`MAX_GLUE_POINTS`]); without a block or `traction`, the default.
+    fn glue_traction(&mut self, block: Option<&'a Block>, sc: &Scope) -> R<GlueTraction> {
+        let Some(block) = block else {
+            return Ok(GlueTraction::default());
+        };
+        let props = self.props(block, sc, "the options of `glue`", &[one("traction")], &[]);
+        let Some(e) = props.value("traction") else {
+            return Ok(GlueTraction::default());
+        };
+        let form = "a glue's traction is `polynomial(degree: P)` or `bessel(points: N)`";
+        let ExprKind::Call { func, args } = &e.kind else {
+            return Err(self.report(
+                Diagnostic::error(codes::WRONG_KIND, form)
+                    .primary(sc.file, e.span, "")
+                    .help("for example `traction bessel(points: 5)` (the default) or `traction polynomial(degree: 2)`"),
+            ));
+        };
+        let (arg, what, max, min) = match func.name.as_str() {
+            "polynomial" => (
+                "degree",
+                "the degree of a polynomial traction",
+                MAX_GLUE_DEGREE,
+                0,
+            ),
+            "bessel" => (
+                "points",
+                "the number of points of a Bessel traction",
+                MAX_GLUE_POINTS,
+                1,
+            ),
+            other => {
+                let help = match crate::suggest::closest(other, ["polynomial", "bessel"]) {
+                    Some(c) => format!("did you mean `{c}`? {form}"),
+                    None => form.to_string(),
+                };
+                return Err(self.report(
+                    Diagnostic::error(
+                        codes::UNKNOWN_NAME,
+                        format!("unknown glue traction `{other}`"),
+                    )
+                    .primary(sc.file, func.span, "")
+                    .help(help),
+                ));
+            }
+        };
+        let a = self.call_args(func, args, &[req(arg)], sc, e.span)?;
+        let Some(ve) = a[0] else {
+            return Err(Reported);
+        };
+        let n = self.int(ve, sc, what)?;
+        if !(min..=max).contains(&n) {
+            let help = if arg == "degree" {
+                format!("degree P gives P + 1 traction parameters per direction; above {MAX_GLUE_DEGREE} the monomials are too ill-conditioned: use `bessel(points: N)` for more parameters")
+            } else {
+                "N points give N traction parameters per direction (1: a constant traction)"
+                    .to_string()
+            };
+            return Err(self.report(
+                Diagnostic::error(
+                    codes::INVALID_VALUE,
+                    format!("{what} must lie in {min} to {max}, found {n}"),
+                )
+                .primary(sc.file, ve.span, "")
+                .help(help),
+            ));
+        }
+        let n = n as u32;
+        Ok(if arg == "degree" {
+            GlueTraction::Polynomial { degree: n }
+        } else {
+            GlueTraction::Bessel { points: n }
+        })
+    }
+
+    /// Completes the glues once every mesh is lowered (`meshes[i]` is `None` for a mesh that
+    /// failed, whose glues are skipped): looks up each glue's other set (an error names the
+    /// mesh, with a suggestion), which must hold boundary edges; refuses a pair of sets
+    /// glued twice (from either side), and a glued set all of whose nodes are fixed,
+    /// displaced or tied in its mesh (a glued set may share some nodes with such a set, as
+    /// where an interface meets a clamped edge). Keeps the sites for `check_glues`.
+    pub(crate) fn resolve_glues(&mut self, meshes: &mut [Option<Mesh>]) {
+        let sites = std::mem::take(&mut self.glues);
+        // The pairs glued so far, each with the site that glued it first.
+        type Side = (usize, usize); // (mesh, set)
+        let mut seen: Vec<((Side, Side), usize)> = Vec::new();
+        for (k, site) in sites.iter().enumerate() {
+            let (Some(Some(this)), Some(Some(other))) =
+                (meshes.get(site.mesh), meshes.get(site.other_mesh))
+            else {
+                continue;
+            };
+            let Some(&MeshCondition::Glue { set, .. }) = this.conditions.get(site.condition) else {
+                continue;
+            };
+            let file = site.file;
+            let Some(os) = other
+                .node_sets
+                .iter()
+                .position(|s| s.name == site.other_set)
+            else {
+                let names = other.node_sets.iter().map(|s| s.name.as_str());
+                let help =
+                    crate::suggest::did_you_mean(&site.other_set, names).unwrap_or_else(|| {
+                        if other.node_sets.is_empty() {
+                            format!(
+                                "mesh `{}` declares no set: add `set {} = nodes(PREDICATE)` to it",
+                                other.name, site.other_set
+                            )
+                        } else {
+                            format!(
+                                "sets of mesh `{}`: {}",
+                                other.name,
+                                other
+                                    .node_sets
+                                    .iter()
+                                    .map(|s| s.name.as_str())
+                                    .collect::<Vec<_>>()
+                                    .join(", ")
+                            )
+                        }
+                    });
+                self.report(
+                    Diagnostic::error(
+                        codes::UNKNOWN_NAME,
+                        format!("unknown set `{}` in mesh `{}`", site.other_set, other.name),
+                    )
+                    .primary(
+                        file,
+                        site.other_set_span,
+                        format!("not declared in mesh `{}`", other.name),
+                    )
+                    .help(help),
+                );
+                continue;
+            };
+            if other.node_sets[os].faces.is_empty() {
+                let face = if other.kind.dim() == 2 {
+                    "edge"
+                } else {
+                    "face"
+                };
+                self.report(
+                    Diagnostic::error(
+                        codes::MESH,
+                        format!(
+                            "set `{}` of mesh `{}` contains no boundary {face}",
+                            site.other_set, other.name
+                        ),
+                    )
+                    .primary(file, site.other_set_span, "")
+                    .help(format!(
+                        "`glue` acts on the element {face}s whose nodes all belong to the set"
+                    )),
+                );
+                continue;
+            }
+            let (a, b) = ((site.mesh, set), (site.other_mesh, os));
+            let pair = if a <= b { (a, b) } else { (b, a) };
+            if let Some(&(_, first)) = seen.iter().find(|(p, _)| *p == pair) {
+                let f = &sites[first];
+                self.report(
+                    Diagnostic::error(
+                        codes::MESH,
+                        format!(
+                            "`{}.{}` and `{}.{}` are glued twice",
+                            this.name, this.node_sets[set].name, other.name, site.other_set
+                        ),
+                    )
+                    .primary(file, site.span, "glued again here")
+                    .secondary(f.file, f.span, "first glued here")
+                    .help("a glue joins the two sets both ways: keep one `glue`"),
+                );
+                continue;
+            }
+            seen.push((pair, k));
+            self.held_glued_set(site, site.mesh, this, set);
+            self.held_glued_set(site, site.other_mesh, other, os);
+            if let Some(Some(m)) = meshes.get_mut(site.mesh) {
+                if let Some(MeshCondition::Glue { other_set, .. }) =
+                    m.conditions.get_mut(site.condition)
+                {
+                    *other_set = os;
+                }
+            }
+        }
+        self.glues = sites;
+    }
+
+    /// An error for each condition of `mesh` (of index `mi`) that fixes, displaces or ties
+    /// every node of its set `set`, glued by `site`.
+    fn held_glued_set(&mut self, site: &GlueSite, mi: usize, mesh: &Mesh, set: usize) {
+        let Some((file, spans)) = self.mesh_condition_spans.get(&mi).cloned() else {
+            return;
+        };
+        let glued = &mesh.node_sets[set];
+        for (j, c) in mesh.conditions.iter().enumerate() {
+            let (held, what) = match c {
+                MeshCondition::Fixed { set } => (*set, "fixed".to_string()),
+                MeshCondition::Displacement { set, value } if value.iter().any(Option::is_some) => {
+                    (*set, "displaced".to_string())
+                }
+                MeshCondition::Tie { set, body } => (
+                    *set,
+                    format!(
+                        "tied to body `{}`",
+                        self.scene_bodies
+                            .get(*body)
+                            .and_then(|b| b.as_ref())
+                            .map_or("?", |b| b.name.as_str())
+                    ),
+                ),
+                _ => continue,
+            };
+            let theirs = &mesh.node_sets[held].nodes;
+            if !glued.nodes.iter().all(|n| theirs.binary_search(n).is_ok()) {
+                continue;
+            }
+            let Some(&there) = spans.get(j) else {
+                continue;
+            };
+            let short = what.split(' ').next().unwrap_or("held");
+            self.report(
+                Diagnostic::error(
+                    codes::MESH,
+                    format!(
+                        "set `{}` of mesh `{}` is glued and {what}",
+                        glued.name, mesh.name
+                    ),
+                )
+                .primary(site.file, site.span, "glued here")
+                .secondary(file, there, format!("{short} here"))
+                .help(format!("every node of `{}` is {what}, which leaves the glue nothing to join: remove one of the two (a glued set may share some nodes with a held set, as where the interface meets a clamped edge)", glued.name)),
+            );
         }
     }
 
@@ -1628,7 +2025,8 @@ struct Ties<'t> {
     nodes: &'t [Vec3],
 }
 
-fn element_name(k: ElementKind) -> &'static str {
+/// The element keyword of a kind (`quad4` for both quad4 kinds).
+pub(crate) fn element_name(k: ElementKind) -> &'static str {
     match k {
         ElementKind::Bar2 => "bar2",
         ElementKind::Tri3PlaneStress | ElementKind::Tri3PlaneStrain => "tri3",

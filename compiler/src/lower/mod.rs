@@ -207,6 +207,11 @@ pub(crate) struct Lowerer<'a> {
     pub scene_materials: Vec<Option<scene::Material>>,
     /// Directory of each file, for relative paths (meshes).
     pub file_dirs: HashMap<FileId, Option<std::path::PathBuf>>,
+    /// The glues of the meshes lowered so far, completed by `resolve_glues` once every
+    /// mesh is lowered, then checked against the analysis by `check_glues`.
+    pub glues: Vec<mesh::GlueSite>,
+    /// The file and the span of each condition of each lowered mesh, by mesh index.
+    pub mesh_condition_spans: HashMap<usize, (FileId, Vec<Span>)>,
 }
 
 /// Most items (declarations and properties) a file may generate with loops and components.
@@ -246,6 +251,8 @@ impl<'a> Lowerer<'a> {
             scene_joints: Vec::new(),
             scene_materials: Vec::new(),
             file_dirs: HashMap::new(),
+            glues: Vec::new(),
+            mesh_condition_spans: HashMap::new(),
         }
     }
 
@@ -467,11 +474,13 @@ impl<'a> Lowerer<'a> {
         }
         let mut meshes = Vec::new();
         for d in std::mem::take(&mut self.meshes) {
-            match self.lower_mesh(&d) {
-                Ok(m) => meshes.push(m),
-                Err(_) => failed = true,
-            }
+            let m = self.lower_mesh(&d).ok();
+            failed |= m.is_none();
+            meshes.push(m);
         }
+        // A mesh may glue to a mesh declared after it.
+        self.resolve_glues(&mut meshes);
+        let meshes: Vec<scene::Mesh> = meshes.into_iter().flatten().collect();
         let gravity = match self.gravity.clone() {
             Some(g) => match self.lower_gravity(&g) {
                 Ok(v) => Some(v),
@@ -536,9 +545,10 @@ impl<'a> Lowerer<'a> {
         if let Some(s) = self.simulate.clone() {
             self.check_mesh_method(&s, &scene);
             self.check_mesh_solver(&s, &scene);
-            if self.has_errors() {
-                return None;
-            }
+        }
+        self.check_glues(self.simulate.clone().as_ref(), &scene);
+        if self.has_errors() {
+            return None;
         }
         Some(scene)
     }

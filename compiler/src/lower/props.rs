@@ -29,11 +29,17 @@ pub(crate) const fn one(name: &'static str) -> Key {
     }
 }
 
+/// The keys whose values may be followed by an options block (`glue a, m.b { ... }`);
+/// [`Lowerer::props`] refuses a block after any other.
+const BLOCK_KEYS: &[&str] = &["glue"];
+
 /// One property occurrence.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct Prop<'a> {
     pub key: &'a Ident,
     pub values: &'a [Expr],
+    /// The options block after the values (only for [`BLOCK_KEYS`]).
+    pub block: Option<&'a Block>,
     pub span: Span,
 }
 
@@ -110,7 +116,7 @@ impl<'a> Lowerer<'a> {
         let mut out = Props::default();
         for it in &block.items {
             match &it.kind {
-                ItemKind::Prop { key, values } => {
+                ItemKind::Prop { key, values, block } => {
                     let Some(k) = keys.iter().find(|k| k.name == key.name) else {
                         let names: Vec<&str> = keys
                             .iter()
@@ -164,6 +170,20 @@ impl<'a> Lowerer<'a> {
                         );
                         continue;
                     }
+                    if let Some(b) = block.as_ref().filter(|_| !BLOCK_KEYS.contains(&k.name)) {
+                        self.report(
+                            Diagnostic::error(
+                                codes::WRONG_KIND,
+                                format!("`{}` takes no options block", key.name),
+                            )
+                            .primary(sc.file, b.span, "")
+                            .help(format!(
+                                "remove the block after the values of `{}`",
+                                key.name
+                            )),
+                        );
+                        continue;
+                    }
                     if !k.repeat {
                         if let Some(prev) = out.get(&key.name) {
                             self.report(
@@ -180,6 +200,7 @@ impl<'a> Lowerer<'a> {
                     out.list.push(Prop {
                         key,
                         values,
+                        block: block.as_ref(),
                         span: it.span,
                     });
                 }
@@ -214,7 +235,20 @@ impl<'a> Lowerer<'a> {
                     )
                     .primary(sc.file, it.span, "not a property here");
                     if let ItemKind::Decl { keyword, .. } = &it.kind {
-                        if let Some(s) = suggest::closest(&keyword.name, names.iter().copied()) {
+                        if let Some(k) = keys.iter().find(|k| k.name == keyword.name) {
+                            // a property written as a declaration (`glue right { ... }`)
+                            let block = if BLOCK_KEYS.contains(&k.name) {
+                                ", and its block follows its values"
+                            } else {
+                                ""
+                            };
+                            d = d.help(format!(
+                                "`{}` is a property of {what}: its values are separated by commas, without `=`{block}",
+                                k.name
+                            ));
+                        } else if let Some(s) =
+                            suggest::closest(&keyword.name, names.iter().copied())
+                        {
                             d = d.help(format!("did you mean `{s}`?"));
                         } else {
                             d = d.help(format!("{what} takes: {}", names.join(", ")));

@@ -396,6 +396,88 @@ impl<'a> Lowerer<'a> {
         }
     }
 
+    /// The glues against the analysis, each error at a `glue` item: glued meshes must be
+    /// 2-D (the interface is a line; an error naming the mesh), and they are solved by
+    /// `mesh_method static` with the direct solver for now (one error, at the first glue,
+    /// pointing at `mesh_method` or `solver` when written).
+    pub(crate) fn check_glues(
+        &mut self,
+        s: Option<&Single<'a>>,
+        scene: &mbdc_runtime::scene::Scene,
+    ) {
+        let sites = self.glues.clone();
+        let Some(first) = sites.first() else {
+            return;
+        };
+        for site in &sites {
+            let mut named: Vec<usize> = Vec::new();
+            for mi in [site.mesh, site.other_mesh] {
+                let Some(m) = scene.meshes.get(mi) else {
+                    continue;
+                };
+                if m.kind.dim() == 2 || named.contains(&mi) {
+                    continue;
+                }
+                named.push(mi);
+                self.report(
+                    Diagnostic::error(
+                        codes::MESH,
+                        format!(
+                            "glues join 2-D meshes for now: the interface is a line, and mesh `{}` has {} elements",
+                            m.name,
+                            super::mesh::element_name(m.kind)
+                        ),
+                    )
+                    .primary(site.file, site.span, "")
+                    .help("glue meshes of tri3 or quad4 elements"),
+                );
+            }
+        }
+        // Where `mesh_method` and `solver` are written in `simulate`, if they are.
+        let written = |key: &str| -> Option<(crate::source::FileId, mbdc_dsl::ast::Span)> {
+            let s = s?;
+            let ItemKind::Decl {
+                body: Some(block), ..
+            } = &s.item.kind
+            else {
+                return None;
+            };
+            block.items.iter().find_map(|it| match &it.kind {
+                ItemKind::Prop { key: k, .. } if k.name == key => Some((s.sc.file, it.span)),
+                ItemKind::Decl { keyword, .. } if keyword.name == key => Some((s.sc.file, it.span)),
+                _ => None,
+            })
+        };
+        let m = scene.simulate.mesh_method;
+        if m != MeshMethod::Static {
+            let mut d = Diagnostic::error(
+                codes::INVALID_VALUE,
+                "glued meshes are solved by `mesh_method static` for now; central_difference and newmark do not take glues yet",
+            )
+            .primary(first.file, first.span, "");
+            let help = match written("mesh_method") {
+                Some((f, sp)) => {
+                    d = d.secondary(f, sp, format!("`mesh_method {}` here", m.name()));
+                    "use `mesh_method static`"
+                }
+                None => {
+                    "`central_difference` is the default: add `mesh_method static` to `simulate`"
+                }
+            };
+            self.report(d.help(help));
+        } else if let MeshSolver::Feti(_) = scene.simulate.mesh_solver {
+            let mut d = Diagnostic::error(
+                codes::INVALID_VALUE,
+                "FETI does not take glues yet: glued meshes are solved by the direct solver",
+            )
+            .primary(first.file, first.span, "");
+            if let Some((f, sp)) = written("solver") {
+                d = d.secondary(f, sp, "FETI chosen here");
+            }
+            self.report(d.help("remove `solver feti` (the direct solver is the default)"));
+        }
+    }
+
     /// `solver feti` where it cannot act: with the explicit `mesh_method central_difference`
     /// (no linear solve) or on a model without meshes, a warning at `solver`; with more
     /// `subdomains` than the meshes have elements, an error at `subdomains`.
@@ -589,7 +671,7 @@ impl<'a> Lowerer<'a> {
         let mut ok = true;
         let mut seen: Vec<(&str, mbdc_dsl::ast::Span)> = Vec::new();
         for it in &block.items {
-            let ItemKind::Prop { key, values } = &it.kind else {
+            let ItemKind::Prop { key, values, .. } = &it.kind else {
                 self.report(
                     Diagnostic::error(
                         codes::UNKNOWN_METHOD_OPTION,

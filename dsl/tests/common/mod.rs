@@ -118,10 +118,17 @@ pub fn for_each_span(file: &File, f: &mut dyn FnMut(&str, Span)) {
                         block(b, f);
                     }
                 }
-                ItemKind::Prop { key, values } => {
+                ItemKind::Prop {
+                    key,
+                    values,
+                    block: b,
+                } => {
                     ident(key, f);
                     for v in values {
                         expr(v, f);
+                    }
+                    if let Some(b) = b {
+                        block(b, f);
                     }
                 }
             }
