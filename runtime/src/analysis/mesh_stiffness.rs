@@ -19,7 +19,7 @@
 //! The assembly is built once before a run; the same pattern serves every factorization.
 
 use super::mesh_model::{elastic, element_place, element_x0, options, MeshError};
-use crate::contract::mesh_layout::MeshLayout;
+use crate::contract::mesh_layout::{ElementBlock, MeshLayout};
 use crate::contract::scene::{HourglassControl, MeshIntegration, MeshKinematics, MeshMethod};
 use crate::kernels::solid;
 use crate::linalg::{ElementDofs, SymmetricAssembly};
@@ -124,23 +124,8 @@ pub fn assemble(l: &MeshLayout) -> Result<MeshStiffness, MeshError> {
     let mut free = vec![0.0; assembly.nnz_free()];
     let mut cons = vec![0.0; assembly.nnz_constrained()];
     for (bi, b) in l.blocks.iter().enumerate() {
-        let (opts, mat) = (options(b), elastic(&b.material));
         for e in 0..b.elements() {
-            let x0 = element_x0(l, b, e);
-            let k = solid::element_stiffness(b.kind, &opts, &mat, &x0);
-            let d = b.kind.nodes() * b.kind.dim();
-            if k[..d]
-                .iter()
-                .any(|row| row[..d].iter().any(|v| !v.is_finite()))
-            {
-                return Err(MeshError {
-                    mesh: b.name.clone(),
-                    reason: format!(
-                        "{}: the element stiffness is not finite",
-                        element_place(l, b, e)
-                    ),
-                });
-            }
+            let k = element_stiffness(l, b, e)?;
             assembly.add_element(bi, e, |r, c| k[r][c], &mut free, &mut cons);
         }
     }
@@ -153,4 +138,31 @@ pub fn assemble(l: &MeshLayout) -> Result<MeshStiffness, MeshError> {
         free,
         constrained: cons,
     })
+}
+
+/// The small-strain stiffness of element `e` of block `b` at its reference shape.
+///
+/// # Errors
+/// A non-finite entry, naming the element and its place.
+pub fn element_stiffness(
+    l: &MeshLayout,
+    b: &ElementBlock,
+    e: usize,
+) -> Result<solid::ElementMatrix, MeshError> {
+    let x0 = element_x0(l, b, e);
+    let k = solid::element_stiffness(b.kind, &options(b), &elastic(&b.material), &x0);
+    let d = b.kind.nodes() * b.kind.dim();
+    if k[..d]
+        .iter()
+        .any(|row| row[..d].iter().any(|v| !v.is_finite()))
+    {
+        return Err(MeshError {
+            mesh: b.name.clone(),
+            reason: format!(
+                "{}: the element stiffness is not finite",
+                element_place(l, b, e)
+            ),
+        });
+    }
+    Ok(k)
 }

@@ -7,7 +7,7 @@
 //!   nodes they use, and its free dofs (three per node, less the layout's fixed and
 //!   prescribed components), numbered locally in ascending global order.
 //! - **Its stiffness.** `K_s` is assembled from its own elements only, with the same element
-//!   kernel as the global stiffness ([`solid::element_stiffness`]); what sits on a node
+//!   kernel as the global stiffness ([`mesh_stiffness::element_stiffness`]); what sits on a node
 //!   rather than on an element (foundation springs, the diagonal `c M` of an implicit
 //!   method) is shared out among the subdomains that hold the node, each taking `1/μ` of it
 //!   (μ the node's multiplicity), so that `Σ_s B_sᵀ K_s B_s` is the global matrix.
@@ -32,10 +32,10 @@
 //!
 //! Knows the layout and the element kernels; nothing of a solver, an integrator or a run.
 
-use super::mesh_model::{elastic, element_place, element_x0, options, MeshError};
+use super::mesh_model::MeshError;
 use super::mesh_partition::bisect_centroids;
+use super::mesh_stiffness;
 use crate::contract::mesh_layout::MeshLayout;
-use crate::kernels::solid;
 use crate::linalg::{ElementDofs, SymmetricAssembly};
 use nalgebra::{DMatrix, DVector};
 
@@ -411,24 +411,8 @@ fn subdomain(
     let mut k = vec![0.0; assembly.nnz_free()];
     let mut kc = vec![0.0; assembly.nnz_constrained()];
     for (bi, els) in block_elements.iter().enumerate() {
-        let b = &l.blocks[bi];
-        let (opts, mat) = (options(b), elastic(&b.material));
-        let d = b.kind.nodes() * b.kind.dim();
         for (le, &e) in els.iter().enumerate() {
-            let x0 = element_x0(l, b, e as usize);
-            let ke = solid::element_stiffness(b.kind, &opts, &mat, &x0);
-            if ke[..d]
-                .iter()
-                .any(|row| row[..d].iter().any(|v| !v.is_finite()))
-            {
-                return Err(MeshError {
-                    mesh: b.name.clone(),
-                    reason: format!(
-                        "{}: the element stiffness is not finite",
-                        element_place(l, b, e as usize)
-                    ),
-                });
-            }
+            let ke = mesh_stiffness::element_stiffness(l, &l.blocks[bi], e as usize)?;
             assembly.add_element(bi, le, |r, c| ke[r][c], &mut k, &mut kc);
         }
     }
