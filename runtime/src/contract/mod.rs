@@ -12,6 +12,9 @@
 //!   and [`mesh_plan`]: the assembly strategies and their plans.
 //! - [`math`]: rotation math (Euler parameters, rotation matrices, the Cayley update).
 //! - [`fnv`]: FNV-1a, the stable hash of scene keys and checkpoint identities.
+//! - [`ranks`]: the processes of a distributed run as the numerics see them (the `Ranks`
+//!   trait: sum, neighbour exchange, gather), and [`thread_ranks`]: ranks as threads of one
+//!   process, the engine that needs no MPI.
 //! - [`persist`]: the state a run carries between steps, saved and loaded by one visitor
 //!   (checkpoints and bit-identical restart).
 //!
@@ -25,5 +28,7 @@ pub mod math;
 pub mod mesh_layout;
 pub mod mesh_plan;
 pub mod persist;
+pub mod ranks;
 pub mod scene;
 pub mod system;
+pub mod thread_ranks;

@@ -389,4 +389,11 @@ pub trait System: Sync {
     fn beam_kernels(&self) -> Option<&dyn std::any::Any> {
         None
     }
+
+    /// The ranks of the distributed run that this system is one rank's part of (`mbdc run
+    /// --mpi`): the mesh methods that run across ranks take their engine from here.
+    /// Default: `None`, a run in one process.
+    fn ranks(&self) -> Option<std::sync::Arc<dyn super::ranks::Ranks>> {
+        None
+    }
 }
