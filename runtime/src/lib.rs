@@ -78,10 +78,10 @@ pub mod study;
 
 pub use analysis::{
     beam_model, constrained_modes, coordinates, effects, input_limits, mesh_model, mesh_partition,
-    mesh_stiffness, mesh_subdomains, step_limits, tie_model, topology,
+    mesh_ranks, mesh_stiffness, mesh_subdomains, step_limits, tie_model, topology,
 };
 pub use contract::{math, mesh_layout, mesh_plan, persist, ranks, scene, system, thread_ranks};
-pub use driver::{assemble, checkpoint, energy, output, run_loop};
+pub use driver::{assemble, checkpoint, energy, output, ranked, run_loop};
 pub use kernels::{beam_element, contact, fn1, forces, joints, solid, traction_basis, tree_joints};
 
 /// The linear-algebra crate of the runtime's types ([`system::Pose`] etc.), re-exported so

@@ -228,6 +228,45 @@ pub fn simulate_on_1_2_4_threads(
     })
 }
 
+/// [`simulate`] on `ranks` ranks, each a thread of this process
+/// ([`mbdc_runtime::thread_ranks::ThreadRanks`]): every rank runs its part of the scene
+/// ([`mbdc_runtime::ranked::Ranked`]) and rank 0 gathers the parts at every frame, as
+/// `mbdc run --mpi` does over MPI. The trajectory is rank 0's (the whole scene).
+pub fn simulate_on_ranks(
+    scene: &Scene,
+    method: MethodSpec,
+    h: f64,
+    duration: f64,
+    every: u32,
+    ranks: usize,
+) -> Trajectory {
+    use mbdc_runtime::ranked::{Gather, Ranked};
+    let sys = Interp::new(scene).expect("interpretable scene");
+    let cfg = RunConfig {
+        duration,
+        step: h,
+        method,
+        every,
+        on_failure: OnFailure::Stop,
+        watchdog: Watchdog::for_scale(run_loop::length_scale(&sys), true),
+        checkpoint: None,
+        resume: None,
+    };
+    let mut runs = mbdc_runtime::thread_ranks::ThreadRanks::run(ranks, |r| {
+        let part = Ranked::new(&sys, r).unwrap_or_else(|e| panic!("{e}"));
+        let mut rec = Recorder(Vec::new());
+        let report = {
+            let mut g = Gather::new(&part, Some(&mut rec));
+            run_loop::run(&part, &cfg, &mut g)
+        };
+        Trajectory {
+            frames: rec.0,
+            report,
+        }
+    });
+    runs.swap_remove(0)
+}
+
 /// A method by name with its default options.
 pub fn method(name: &str) -> MethodSpec {
     MethodSpec::default_for(name).expect("known method")

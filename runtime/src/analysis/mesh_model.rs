@@ -143,12 +143,17 @@ pub fn element_place(l: &MeshLayout, b: &ElementBlock, e: usize) -> String {
             *ck += xk / nodes.len() as f64;
         }
     }
-    let local: Vec<String> = nodes
-        .iter()
-        .map(|&n| (n as usize - b.first_node).to_string())
-        .collect();
+    // a rank's part names its elements and nodes by their numbers in the whole mesh
+    let (id, node_id) = match &l.halo {
+        Some(h) => (
+            h.element_ids[b.first_element + e] as usize,
+            nodes.iter().map(|&n| h.node_ids[n as usize] as usize).collect::<Vec<_>>(),
+        ),
+        None => (e, nodes.iter().map(|&n| n as usize - b.first_node).collect()),
+    };
+    let local: Vec<String> = node_id.iter().map(usize::to_string).collect();
     format!(
-        "element {e} (nodes {}, centroid ({:.4}, {:.4}, {:.4}) m)",
+        "element {id} (nodes {}, centroid ({:.4}, {:.4}, {:.4}) m)",
         local.join(", "),
         c[0],
         c[1],

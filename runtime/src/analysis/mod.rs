@@ -12,7 +12,8 @@
 //!   [`mesh_partition`]: a mesh split into subdomains (recursive coordinate bisection) and
 //!   the papers' partition metrics (`mbdc check --partition P`); [`mesh_subdomains`]: the
 //!   meshes torn into subdomains for FETI (their stiffness, interface multipliers and
-//!   rigid-body modes).
+//!   rigid-body modes); [`mesh_ranks`]: the meshes split between the ranks of a
+//!   distributed explicit run (each rank's elements and nodes, the interface exchange).
 //! - [`tie_model`]: node sets of meshes tied to bodies — the bodies with their tied nodes'
 //!   inertia (reference point at the joint mass centre), the tied nodes as constrained,
 //!   massless mesh nodes.
@@ -37,6 +38,7 @@ pub mod effects;
 pub mod input_limits;
 pub mod mesh_model;
 pub mod mesh_partition;
+pub mod mesh_ranks;
 pub mod mesh_stiffness;
 pub mod mesh_subdomains;
 pub mod step_limits;

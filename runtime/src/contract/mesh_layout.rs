@@ -51,6 +51,36 @@ pub struct MeshLayout {
     pub method: MeshMethod,
     /// The linear solver of the implicit analyses (the scene's `simulate { solver }`).
     pub solver: MeshSolver,
+    /// One rank's part of a distributed explicit run (its elements, the nodes they touch
+    /// and the exchange of interface forces with the other ranks,
+    /// `crate::analysis::mesh_ranks`); `None` for a whole mesh in one process.
+    pub halo: Option<MeshHalo>,
+}
+
+/// How one rank's part of a mesh (a [`MeshLayout`] of its own elements and the nodes they
+/// touch) completes its interface nodes' force sums with the other ranks' element forces,
+/// every step (notes D §5: the communication pattern is fixed in time).
+///
+/// A node on the interface between ranks sums, like every node, the forces of all the
+/// elements around it in the canonical order ([`super::mesh_plan`]); the slots of the
+/// elements of other ranks are *ghost slots*, numbered after the part's own slots
+/// ([`MeshLayout::total_slots`]` + i`) and filled by the exchange before the node pass. The
+/// part's sums, and so its motion, are bitwise those of the whole mesh in one process.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct MeshHalo {
+    /// The exchange: three values (a slot's force) per slot sent or received.
+    pub exchange: super::ranks::Halo,
+    /// The own slots sent, peer after peer (the order the peer's ghost slots expect).
+    pub send_slots: Vec<u32>,
+    /// Number of ghost slots (what is received, peer after peer).
+    pub ghost_slots: usize,
+    /// Per node: whether this rank reports it (in energies and output): each node is
+    /// reported by the lowest rank that touches it.
+    pub owned: Vec<bool>,
+    /// Per node of the part: its number in its mesh (what reports name).
+    pub node_ids: Vec<u32>,
+    /// Per element of the part: its number in its mesh (what reports name).
+    pub element_ids: Vec<u32>,
 }
 
 impl MeshLayout {

@@ -9,6 +9,8 @@
 //! - [`work`]: the work of non-conservative forces and drivers, for the energy balance.
 //! - [`checkpoint`]: checkpoint files (identity, atomic write, CRC) for bit-identical
 //!   restart.
+//! - [`ranked`]: a run across the ranks of a distributed engine: a rank's part of a system,
+//!   and rank 0 gathering the parts into the one output folder.
 //!
 //! Imports every floor below (contract, kernels, linalg, analysis, integrators); knows
 //! neither the interpreter nor generated code: it drives any `System`.
@@ -17,5 +19,6 @@ pub mod assemble;
 pub mod checkpoint;
 pub mod energy;
 pub mod output;
+pub mod ranked;
 pub mod run_loop;
 pub mod work;

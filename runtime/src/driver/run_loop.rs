@@ -647,6 +647,19 @@ impl CheckpointClock<'_> {
     }
 }
 
+/// On one rank of a distributed run, rank 0's `mine` (checkpoints are taken at the same
+/// steps on every rank, however their wall clocks run); else `mine`.
+fn rank_zero_says<S: System>(sys: &S, mine: bool) -> bool {
+    match sys.ranks().filter(|r| r.size() > 1) {
+        Some(r) => {
+            let mut x = [if mine { 1.0 } else { 0.0 }];
+            r.broadcast(&mut x);
+            x[0] > 0.0
+        }
+        None => mine,
+    }
+}
+
 /// Run `sys` from its initial state.
 ///
 /// A step that is not positive and finite, a duration that is not finite and ≥ 0, or more
@@ -867,7 +880,10 @@ pub fn run<S: System>(sys: &S, cfg: &RunConfig, obs: &mut dyn Observer) -> RunRe
                         emit(sys, &st, report.steps, &mut probe, obs, &ew);
                         start.clone_from(&st);
                         ew.save();
-                        if let Some(c) = clock.as_mut().filter(|c| c.due(report.steps)) {
+                        if let Some(c) = clock
+                            .as_mut()
+                            .filter(|c| rank_zero_says(sys, c.due(report.steps)))
+                        {
                             let mut k_now = k;
                             let mut out = persist::Saver::new();
                             let mut run = persist::Saver::new();
@@ -1714,8 +1730,25 @@ pub fn run_to_dir<S: System>(
     dir: &std::path::Path,
     progress: &mut dyn Observer,
 ) -> Result<(RunReport, crate::driver::output::Summary), crate::driver::output::OutputError> {
+    write_run(sys.layout(), cfg, meta, spec, dir, progress, &mut |obs| {
+        run(sys, cfg, obs)
+    })
+}
+
+/// [`run_to_dir`]'s writing around a run: the writers for a system of `layout` (the whole
+/// system, where `go` runs a rank's part and gathers it), the run `go` makes with them as
+/// its observer, and the summary.
+pub(crate) fn write_run(
+    layout: &Layout,
+    cfg: &RunConfig,
+    meta: crate::driver::output::RunMeta,
+    spec: &crate::contract::scene::OutputSpec,
+    dir: &std::path::Path,
+    progress: &mut dyn Observer,
+    go: &mut dyn FnMut(&mut dyn Observer) -> RunReport,
+) -> Result<(RunReport, crate::driver::output::Summary), crate::driver::output::OutputError> {
     let writer = match &cfg.resume {
-        None => crate::driver::output::OutputWriter::create(dir, sys.layout(), spec, meta.clone())?,
+        None => crate::driver::output::OutputWriter::create(dir, layout, spec, meta.clone())?,
         Some(r) => {
             // the files as they were at the checkpoint
             let mut at = crate::driver::output::OutputPosition::default();
@@ -1726,11 +1759,11 @@ pub fn run_to_dir<S: System>(
                     path: dir.join(crate::driver::checkpoint::FOLDER),
                     message: format!("the checkpoint's output position: {e}"),
                 })?;
-            crate::driver::output::OutputWriter::resume(dir, sys.layout(), spec, meta.clone(), &at)?
+            crate::driver::output::OutputWriter::resume(dir, layout, spec, meta.clone(), &at)?
         }
     };
-    let mut first_element = vec![false; sys.layout().beams.elements.len()];
-    for b in &sys.layout().beams.beams {
+    let mut first_element = vec![false; layout.beams.elements.len()];
+    for b in &layout.beams.beams {
         first_element[b.first_element] = true;
     }
     let mut obs = ToWriter {
@@ -1742,7 +1775,7 @@ pub fn run_to_dir<S: System>(
         first_wait: None,
     };
     let t0 = std::time::Instant::now();
-    let report = run(sys, cfg, &mut obs);
+    let report = go(&mut obs);
     let mut summary = crate::driver::output::Summary::started(&meta);
     summary.step = report.step;
     summary.steps = report.steps;
@@ -1784,7 +1817,7 @@ pub fn run_to_dir<S: System>(
             serde_json::Value::Number(v),
         );
     }
-    if !sys.layout().meshes.is_empty() {
+    if !layout.meshes.is_empty() {
         // The meshes' energy balance at the last frame, term by term (J).
         let e = &obs.mesh_energy;
         let terms: serde_json::Map<String, serde_json::Value> = [

@@ -28,6 +28,7 @@ use rayon::prelude::*;
 
 use crate::contract::mesh_layout::MeshLayout;
 use crate::contract::mesh_plan::{Assembly, INTERFACE};
+use crate::contract::ranks::Ranks;
 use crate::kernels::solid::MAX_NODES;
 
 /// Elements (of a block) or nodes below which a pass runs on the calling thread.
@@ -272,6 +273,10 @@ pub struct Assembler {
     net: Vec<Sum3>,
     /// Partitions: the forces at interface nodes, one per incidence.
     interface: Vec<Sum3>,
+    /// A rank's part: the own slots' forces sent to the other ranks, flat.
+    send: Vec<f64>,
+    /// A rank's part: the ghost slots' forces received, flat.
+    recv: Vec<f64>,
 }
 
 impl Assembler {
@@ -282,7 +287,9 @@ impl Assembler {
         Assembler {
             strategy,
             slots: match strategy {
-                Assembly::Gather => vec![[0.0; 3]; l.total_slots()],
+                Assembly::Gather => {
+                    vec![[0.0; 3]; l.total_slots() + l.halo.as_ref().map_or(0, |h| h.ghost_slots)]
+                }
                 _ => Vec::new(),
             },
             net: match strategy {
@@ -293,6 +300,33 @@ impl Assembler {
                 Assembly::Partitions => shared(l.assembly.interface_slots()),
                 _ => Vec::new(),
             },
+            send: l
+                .halo
+                .as_ref()
+                .map_or_else(Vec::new, |h| vec![0.0; h.exchange.send_len()]),
+            recv: l
+                .halo
+                .as_ref()
+                .map_or_else(Vec::new, |h| vec![0.0; h.exchange.recv_len()]),
+        }
+    }
+
+    /// A rank's part of a distributed run ([`MeshLayout::halo`]): send the own elements'
+    /// forces at the interface nodes to the ranks that share those nodes, and fill the
+    /// ghost slots with theirs. Between the element passes and [`Assembler::finish`]; every
+    /// rank calls it every step. Nothing to do for a mesh in one process.
+    pub fn exchange(&mut self, l: &MeshLayout, ranks: &dyn Ranks) {
+        let Some(h) = &l.halo else {
+            return;
+        };
+        debug_assert_eq!(self.strategy, Assembly::Gather, "a rank's part runs the gather");
+        for (out, &s) in self.send.chunks_exact_mut(3).zip(&h.send_slots) {
+            out.copy_from_slice(&self.slots[s as usize]);
+        }
+        ranks.exchange(&h.exchange, &self.send, &mut self.recv);
+        let ghosts = l.total_slots();
+        for (slot, f) in self.slots[ghosts..].iter_mut().zip(self.recv.chunks_exact(3)) {
+            slot.copy_from_slice(f);
         }
     }
 

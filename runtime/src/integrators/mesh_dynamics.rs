@@ -51,6 +51,7 @@ use super::mesh_kernels::{BlockArgs, BlockEval, BlockKernel, BlockKernels, Eleme
 use super::StepError;
 use crate::analysis::mesh_model::{elastic, element_place, options, plastic};
 use crate::contract::mesh_layout::MeshLayout;
+use crate::contract::ranks::Ranks;
 use crate::kernels::fn1;
 use crate::kernels::solid::{self, PlasticResponse};
 
@@ -198,6 +199,8 @@ pub struct MeshDynamics {
     tied: Vec<u32>,
     /// Per node: whether it is tied.
     is_tied: Vec<bool>,
+    /// The ranks of a distributed run whose part the layout is ([`MeshLayout::halo`]).
+    ranks: Option<Arc<dyn Ranks>>,
 }
 
 impl MeshDynamics {
@@ -230,6 +233,42 @@ impl MeshDynamics {
         t0: f64,
         start: &super::MeshState,
     ) -> Result<MeshDynamics, StepError> {
+        MeshDynamics::on_ranks(layout, kernels, h, t0, start, None)
+    }
+
+    /// [`MeshDynamics::with_kernels`] for one rank of a distributed run: `layout` is the
+    /// rank's part ([`crate::analysis::mesh_ranks::rank_part`], with its
+    /// [`MeshLayout::halo`]) and `ranks` the run's engine. Every step exchanges the
+    /// interface forces and sums the energies over the ranks; a failure on one rank stops
+    /// every rank at the same step. The motion is bitwise that of the whole mesh in one
+    /// process.
+    ///
+    /// # Errors
+    /// As [`MeshDynamics::with_kernels`]; a part without its exchange, or ranks without a
+    /// part.
+    pub fn on_ranks(
+        layout: Arc<MeshLayout>,
+        kernels: &BlockKernels,
+        h: f64,
+        t0: f64,
+        start: &super::MeshState,
+        ranks: Option<Arc<dyn Ranks>>,
+    ) -> Result<MeshDynamics, StepError> {
+        let distributed = ranks.as_ref().is_some_and(|r| r.size() > 1);
+        if distributed != layout.halo.is_some() {
+            return Err(StepError::Mesh {
+                mesh: layout
+                    .blocks
+                    .first()
+                    .map_or_else(String::new, |b| b.name.clone()),
+                place: "its split between ranks".into(),
+                message: if distributed {
+                    "the run has several ranks but the layout is the whole mesh, not this rank's part (a bug in the caller)".into()
+                } else {
+                    "the layout is one rank's part but the run has no other ranks (a bug in the caller)".into()
+                },
+            });
+        }
         if let Some(why) = kernels.mismatch(&layout) {
             return Err(StepError::Mesh {
                 mesh: layout
@@ -342,11 +381,13 @@ impl MeshDynamics {
             layout,
             tied,
             is_tied,
+            ranks: if distributed { ranks } else { None },
         };
         md.prescribe(t0);
         md.accelerations(t0)?;
-        md.energy.plastic += md.plastic_work();
         md.energy_state();
+        let plastic = md.plastic_work();
+        md.account([0.0, 0.0, 0.0, plastic]);
         Ok(md)
     }
 
@@ -438,12 +479,64 @@ impl MeshDynamics {
             self.v[n as usize] = *vt;
         }
         self.t = t1;
-        self.energy.external_work += 0.5 * (w0 + w1);
-        self.energy.tie_work += 0.5 * (tw0 + tw1);
-        self.energy.dissipated += h * self.scalars.iter().map(|s| s.hourglass_power).sum::<f64>();
-        self.energy.plastic += self.plastic_work();
         self.energy_state();
+        let dissipated = h * self.scalars.iter().map(|s| s.hourglass_power).sum::<f64>();
+        let plastic = self.plastic_work();
+        self.account([0.5 * (w0 + w1), 0.5 * (tw0 + tw1), dissipated, plastic]);
         Ok(())
+    }
+
+    /// Add the step's work of loads, ties, hourglass damping and plasticity (`d`, in that
+    /// order) to the accumulators; on ranks, first sum them and the state energies over
+    /// the ranks (each rank has counted its elements and owned nodes).
+    fn account(&mut self, mut d: [f64; 4]) {
+        let e = &mut self.energy;
+        if let Some(r) = &self.ranks {
+            let mut x = [
+                d[0],
+                d[1],
+                d[2],
+                d[3],
+                e.kinetic,
+                e.strain,
+                e.hourglass,
+                e.foundation,
+                e.half_step,
+            ];
+            r.sum(&mut x);
+            d.copy_from_slice(&x[..4]);
+            [e.kinetic, e.strain, e.hourglass, e.foundation, e.half_step] =
+                [x[4], x[5], x[6], x[7], x[8]];
+        }
+        e.external_work += d[0];
+        e.tie_work += d[1];
+        e.dissipated += d[2];
+        e.plastic += d[3];
+    }
+
+    /// Whether node `n` counts in this rank's energies (every node, in one process).
+    fn owned(&self, n: usize) -> bool {
+        self.layout.halo.as_ref().is_none_or(|h| h.owned[n])
+    }
+
+    /// On ranks: whether any rank failed (`mine` for this one), agreed by all, as the
+    /// error to return: this rank's own, or one that names the failing rank's report.
+    fn agree(&self, mine: Result<(), StepError>) -> Result<(), StepError> {
+        let Some(r) = &self.ranks else {
+            return mine;
+        };
+        if crate::contract::ranks::any(&**r, mine.is_err()) && mine.is_ok() {
+            return Err(StepError::Mesh {
+                mesh: self
+                    .layout
+                    .blocks
+                    .first()
+                    .map_or_else(String::new, |b| b.name.clone()),
+                place: format!("rank {}'s part", r.rank()),
+                message: "another rank failed at this step (its report names the element)".into(),
+            });
+        }
+        mine
     }
 
     /// The plastic work of the last element evaluation, summed in element order.
@@ -458,13 +551,17 @@ impl MeshDynamics {
     /// the tied nodes' reactions' part, `Σ_tied reaction · Δu`.
     fn work_rate(&self) -> (f64, f64) {
         let (mut w, mut tie) = (0.0, 0.0);
-        for (((f, r), d), &tied) in self
+        for (n, (((f, r), d), &tied)) in self
             .f_ext
             .iter()
             .zip(&self.reaction)
             .zip(&self.du)
             .zip(&self.is_tied)
+            .enumerate()
         {
+            if !self.owned(n) {
+                continue;
+            }
             if tied {
                 w += f[0] * d[0] + f[1] * d[1] + f[2] * d[2];
                 tie += r[0] * d[0] + r[1] * d[1] + r[2] * d[2];
@@ -543,6 +640,7 @@ impl MeshDynamics {
             }
         }
         // Element forces, summed at the nodes by the assembly strategy.
+        let mut failure = Ok(());
         self.assembly.begin(&self.f_ext, &self.f_found);
         let (u, v) = (&self.u, &self.v);
         for (bi, b) in l.blocks.iter().enumerate() {
@@ -581,7 +679,7 @@ impl MeshDynamics {
                 .iter()
                 .position(|s| s.min_jacobian.is_nan() || s.min_jacobian <= 0.0)
             {
-                return Err(StepError::Mesh {
+                failure = Err(StepError::Mesh {
                     mesh: b.name.clone(),
                     place: element_place(l, b, e),
                     message: format!(
@@ -589,7 +687,14 @@ impl MeshDynamics {
                         scalars[e].min_jacobian
                     ),
                 });
+                break;
             }
+        }
+        // On ranks, every rank learns of a failure before the exchange that would wait for
+        // the failed one.
+        self.agree(failure)?;
+        if let Some(r) = &self.ranks {
+            self.assembly.exchange(l, &**r);
         }
         // The nodal sums and the accelerations.
         self.assembly.finish(
@@ -599,16 +704,18 @@ impl MeshDynamics {
             &mut self.a,
             &mut self.reaction,
         );
+        let mut finite = Ok(());
         for (n, a) in self.a.iter().enumerate() {
             if !(a[0].is_finite() && a[1].is_finite() && a[2].is_finite()) {
-                return Err(StepError::Mesh {
+                finite = Err(StepError::Mesh {
                     mesh: self.mesh_of_node(n).to_string(),
-                    place: format!("node {}", n - self.block_of_node(n).first_node),
+                    place: self.node_place(n),
                     message: "the acceleration is not finite".into(),
                 });
+                break;
             }
         }
-        Ok(())
+        self.agree(finite)
     }
 
     fn block_of_node(&self, n: usize) -> &crate::contract::mesh_layout::ElementBlock {
@@ -620,6 +727,14 @@ impl MeshDynamics {
         &l.blocks[i]
     }
 
+    /// Node `n` as reports name it: its number in its mesh.
+    fn node_place(&self, n: usize) -> String {
+        match &self.layout.halo {
+            Some(h) => format!("node {}", h.node_ids[n]),
+            None => format!("node {}", n - self.block_of_node(n).first_node),
+        }
+    }
+
     fn mesh_of_node(&self, n: usize) -> &str {
         &self.block_of_node(n).name
     }
@@ -627,27 +742,31 @@ impl MeshDynamics {
     /// The state-function energies at the current state.
     fn energy_state(&mut self) {
         let l = &*self.layout;
+        let owned = |n: &usize| l.halo.as_ref().is_none_or(|h| h.owned[*n]);
         self.energy.kinetic = 0.5
-            * self
-                .v
-                .iter()
-                .zip(&l.mass)
-                .map(|(v, m)| m * (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]))
+            * (0..l.nodes())
+                .filter(owned)
+                .map(|n| {
+                    let (v, m) = (self.v[n], l.mass[n]);
+                    m * (v[0] * v[0] + v[1] * v[1] + v[2] * v[2])
+                })
                 .sum::<f64>();
         self.energy.half_step = -0.125
             * self.h
             * self.h
-            * self
-                .a
-                .iter()
-                .zip(&l.mass)
-                .map(|(a, m)| m * (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]))
+            * (0..l.nodes())
+                .filter(owned)
+                .map(|n| {
+                    let (a, m) = (self.a[n], l.mass[n]);
+                    m * (a[0] * a[0] + a[1] * a[1] + a[2] * a[2])
+                })
                 .sum::<f64>();
         self.energy.strain = self.scalars.iter().map(|s| s.strain_energy).sum();
         self.energy.hourglass = self.scalars.iter().map(|s| s.hourglass_energy).sum();
         self.energy.foundation = l
             .foundation
             .iter()
+            .filter(|s| owned(&(s.node as usize)))
             .map(|s| {
                 let u = self.u[s.node as usize];
                 let un = u[0] * s.n[0] + u[1] * s.n[1] + u[2] * s.n[2];

@@ -232,14 +232,23 @@ pub fn make<'a, S: System + 'a>(
     if let Some(why) = mesh_ties::refusal(&meshes, sys.layout(), method) {
         return Err(StartError::Invalid(why));
     }
-    if let Some(c) = crate::analysis::mesh_model::critical_step(&meshes) {
-        if h > c.step {
+    // A rank's part checks its own elements' step limit; the ranks agree, so that none
+    // starts while another refuses.
+    let ranks = sys.ranks().filter(|r| r.size() > 1);
+    let over = crate::analysis::mesh_model::critical_step(&meshes).filter(|c| h > c.step);
+    if let Some(r) = &ranks {
+        if crate::contract::ranks::any(&**r, over.is_some()) && over.is_none() {
             return Err(StartError::Invalid(format!(
-                "mesh '{}': the step {h:.3e} s is above the central-difference limit {:.3e} s = 2/ω_max of its stiffest element, {} (ω_max ≤ {:.4e} rad/s){}; reduce the step below it (a step of 0.9× the limit leaves a margin)",
-                c.mesh, c.step, c.place, c.omega,
-                if meshes.ties.is_empty() { "" } else { ", which bounds the tied system too" }
+                "the step {h:.3e} s is above the central-difference limit of another rank's part of the meshes (its report names the element)"
             )));
         }
+    }
+    if let Some(c) = over {
+        return Err(StartError::Invalid(format!(
+            "mesh '{}': the step {h:.3e} s is above the central-difference limit {:.3e} s = 2/ω_max of its stiffest element, {} (ω_max ≤ {:.4e} rad/s){}; reduce the step below it (a step of 0.9× the limit leaves a margin)",
+            c.mesh, c.step, c.place, c.omega,
+            if meshes.ties.is_empty() { "" } else { ", which bounds the tied system too" }
+        )));
     }
     // The meshes first: their forces at the start give the ties' first wrench, which the
     // rigid method's start (consistent λ⁰, accelerations) must see.
@@ -260,12 +269,13 @@ pub fn make<'a, S: System + 'a>(
             .clone(),
         None => mesh_kernels::BlockKernels::interpreted(&meshes),
     };
-    let mesh = mesh_dynamics::MeshDynamics::with_kernels(
+    let mesh = mesh_dynamics::MeshDynamics::on_ranks(
         meshes.clone(),
         &kernels,
         h,
         start.t,
         &mesh_start,
+        ranks,
     )?;
     if let Some(c) = &mut coupler {
         mesh_ties::wrenches(&meshes, &start.pose, mesh.reactions(), &mut c.wrench);
