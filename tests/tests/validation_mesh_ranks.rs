@@ -67,7 +67,7 @@ fn plate_with_a_hole_on_ranks_is_bitwise_the_one_process_run() {
 #[test]
 fn hex_bar_on_ranks_is_bitwise_the_one_process_run() {
     let e = check_model("hex_bar.mbd", 1e-4, 50);
-    assert!(e.strain > 0.0 && e.hourglass != 0.0, "{e:?}");
+    assert!(e.strain > 0.0 && e.kinetic > 0.0, "{e:?}");
 }
 
 /// Elastoplastic hex8 and bar2 bars (J2 return mapping, two element blocks) past yield.
@@ -75,6 +75,6 @@ fn hex_bar_on_ranks_is_bitwise_the_one_process_run() {
 fn plastic_bars_on_ranks_are_bitwise_the_one_process_run() {
     let scene = load_model("plastic_bar.mbd");
     let d = scene.simulate.duration;
-    let e = check_model("plastic_bar.mbd", d * 0.3, 200);
+    let e = check_model("plastic_bar.mbd", d * 0.45, 500);
     assert!(e.plastic > 0.0, "the bars have yielded: {e:?}");
 }
