@@ -14,6 +14,8 @@
 
 mod child_signals;
 mod commands;
+#[cfg(feature = "mpi")]
+mod mpi_ranks;
 mod plot;
 mod render;
 mod scene_crate;

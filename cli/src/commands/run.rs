@@ -116,6 +116,11 @@ pub struct Args {
     /// Run even if the step is above the stability limit of an explicit method.
     #[arg(long)]
     pub force: bool,
+    /// Run across the ranks of MPI, under `mpirun -n P mbdc run --mpi FILE` (meshes alone:
+    /// the explicit method split between the ranks, or FETI's subdomains shared by them;
+    /// the interpreter runs the scene). Needs an mbdc built with `--features mpi`.
+    #[arg(long)]
+    pub mpi: bool,
 }
 
 fn parse_override(s: &str) -> Result<Override, String> {
@@ -148,7 +153,7 @@ pub fn config<S: System>(sys: &S, scene: &Scene, args: &Args) -> Result<RunConfi
 }
 
 /// The run settings given on the command line.
-fn settings(args: &Args) -> Settings {
+pub(crate) fn settings(args: &Args) -> Settings {
     Settings {
         method: args.method.clone(),
         step: args.step,
@@ -160,6 +165,7 @@ fn settings(args: &Args) -> Settings {
         checkpoint_seconds: args.checkpoint_seconds,
         keep_checkpoints: args.keep_checkpoints,
         restart: args.restart,
+        restart_up_to: None,
     }
 }
 
@@ -274,6 +280,15 @@ pub const UNFINISHED: &str = "its summary.json is still the one written when it 
 
 /// Runs `mbdc run`.
 pub fn run(args: Args) -> ExitCode {
+    if args.mpi {
+        #[cfg(feature = "mpi")]
+        return super::run_mpi::run(&args);
+        #[cfg(not(feature = "mpi"))]
+        {
+            eprintln!("error: this mbdc was built without MPI: build it with `cargo build --release -p mbdc --features mpi` (which needs Open MPI's headers and libclang: `apt-get install libopenmpi-dev openmpi-bin libclang-dev`), then run `mpirun -n 4 target/release/mbdc run --mpi {}`", args.file.display());
+            return ExitCode::FAILURE;
+        }
+    }
     let scene = match load(&args.file, &args.set) {
         Ok(s) => s,
         Err(code) => return code,

@@ -70,6 +70,9 @@ pub struct Settings {
     pub keep_checkpoints: Option<usize>,
     /// Continue the run in the output folder from its newest checkpoint.
     pub restart: bool,
+    /// With `restart`: continue from the newest checkpoint at or before this step (the
+    /// ranks of a distributed run restart from a step that every one of them saved).
+    pub restart_up_to: Option<u64>,
 }
 
 /// Set up checkpoints and restart in `cfg` from the scene's `output { checkpoint_every …;
@@ -125,7 +128,8 @@ pub fn checkpoints<S: System>(
     let folder = dir.join(checkpoint::FOLDER);
     let mut notes = Vec::new();
     if s.restart {
-        let (c, refused) = checkpoint::latest(&folder).map_err(|e| e.to_string())?;
+        let (c, refused) = checkpoint::latest_up_to(&folder, s.restart_up_to.unwrap_or(u64::MAX))
+            .map_err(|e| e.to_string())?;
         for r in refused {
             notes.push(format!("warning: {r}; continuing from an older checkpoint"));
         }

@@ -347,8 +347,16 @@ pub fn list(dir: &Path) -> Result<Vec<(u64, PathBuf)>, CheckpointError> {
 /// The newest checkpoint of `dir` that reads whole. Newer files that do not are refused:
 /// their names and reasons are returned too, for the user to be told.
 pub fn latest(dir: &Path) -> Result<(Checkpoint, Vec<CheckpointError>), CheckpointError> {
+    latest_up_to(dir, u64::MAX)
+}
+
+/// [`latest`] among the checkpoints at or before step `last`.
+pub fn latest_up_to(
+    dir: &Path,
+    last: u64,
+) -> Result<(Checkpoint, Vec<CheckpointError>), CheckpointError> {
     let mut refused = Vec::new();
-    for (_, path) in list(dir)?.into_iter().rev() {
+    for (_, path) in list(dir)?.into_iter().rev().filter(|(s, _)| *s <= last) {
         let bytes = std::fs::read(&path).map_err(|e| io(&path, e))?;
         match decode(&path, &bytes) {
             Ok(c) => return Ok((c, refused)),
@@ -362,6 +370,16 @@ pub fn latest(dir: &Path) -> Result<(Checkpoint, Vec<CheckpointError>), Checkpoi
             .map(|e| format!("\n  refused: {e}"))
             .collect(),
     })
+}
+
+/// The steps of the checkpoints in `dir` that read whole, oldest first.
+pub fn readable_steps(dir: &Path) -> Vec<u64> {
+    list(dir)
+        .unwrap_or_default()
+        .into_iter()
+        .filter(|(_, p)| std::fs::read(p).is_ok_and(|b| decode(p, &b).is_ok()))
+        .map(|(s, _)| s)
+        .collect()
 }
 
 #[cfg(test)]

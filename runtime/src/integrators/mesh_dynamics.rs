@@ -514,6 +514,20 @@ impl MeshDynamics {
         e.plastic += d[3];
     }
 
+    /// On ranks: the number of ranks, and what this rank sends per step (bytes: the
+    /// interface forces of the exchange) and how many elements it evaluates; nothing in one
+    /// process.
+    pub fn rank_stats(&self) -> Vec<(&'static str, f64)> {
+        match (&self.ranks, &self.layout.halo) {
+            (Some(r), Some(h)) => vec![
+                ("ranks", r.size() as f64),
+                ("rank0_elements", self.layout.elements() as f64),
+                ("rank0_exchange_bytes_per_step", 8.0 * h.exchange.send_len() as f64),
+            ],
+            _ => Vec::new(),
+        }
+    }
+
     /// Whether node `n` counts in this rank's energies (every node, in one process).
     fn owned(&self, n: usize) -> bool {
         self.layout.halo.as_ref().is_none_or(|h| h.owned[n])

@@ -483,9 +483,12 @@ impl<S: System> Integrator<S> for WithMeshes {
             .map_or(&[], |i| Integrator::<S>::active(i))
     }
     fn stats(&self) -> Vec<(&'static str, f64)> {
-        self.inner
+        let mut s = self
+            .inner
             .as_ref()
-            .map_or_else(Vec::new, |i| Integrator::<S>::stats(i))
+            .map_or_else(Vec::new, |i| Integrator::<S>::stats(i));
+        s.extend(self.mesh.rank_stats());
+        s
     }
     fn take_notice(&mut self) -> Option<String> {
         self.inner
