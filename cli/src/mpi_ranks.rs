@@ -204,8 +204,7 @@ impl Ranks for MpiRanks {
                 at += c;
             }
             all.resize(at as usize, 0.0);
-            let mut part =
-                mpi::datatype::PartitionMut::new(&mut all[..], &counts[..], &displs[..]);
+            let mut part = mpi::datatype::PartitionMut::new(&mut all[..], &counts[..], &displs[..]);
             root.gather_varcount_into_root(piece, &mut part);
         } else {
             root.gather_into(&n);

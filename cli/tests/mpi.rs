@@ -64,25 +64,50 @@ fn explicit_on_1_2_4_ranks_writes_the_one_process_files_bitwise() {
     let dir = scratch("mpi-explicit");
     let one = dir.join("one");
     let out = command()
-        .args(["run", "--interp", "-q", &bar(), "--duration", "1e-4", "--every", "40", "-o"])
+        .args([
+            "run",
+            "--interp",
+            "-q",
+            &bar(),
+            "--duration",
+            "1e-4",
+            "--every",
+            "40",
+            "-o",
+        ])
         .arg(&one)
         .output()
         .unwrap();
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     for ranks in [1, 2, 4] {
         let o = dir.join(format!("ranks{ranks}"));
-        let out = mpirun(ranks, &[&bar(), "--duration", "1e-4", "--every", "40", "-o", s(&o)])
-            .output()
-            .expect("mpirun runs (Open MPI installed?)");
+        let out = mpirun(
+            ranks,
+            &[&bar(), "--duration", "1e-4", "--every", "40", "-o", s(&o)],
+        )
+        .output()
+        .expect("mpirun runs (Open MPI installed?)");
         let err = String::from_utf8_lossy(&out.stderr);
         assert!(out.status.success(), "{ranks} ranks: {err}");
-        assert!(err.contains(&format!("{ranks} ranks on MPI (Open MPI")), "{err}");
+        assert!(
+            err.contains(&format!("{ranks} ranks on MPI (Open MPI")),
+            "{err}"
+        );
         same_mesh_files(&one, &o, &format!("{ranks} ranks"));
         let sm = summary(&o);
         assert_eq!(sm["status"], "finished", "{sm}");
         if ranks > 1 {
             assert_eq!(sm["extra"]["ranks"], ranks as f64, "{sm}");
-            assert!(sm["extra"]["rank0_exchange_bytes_per_step"].as_f64().unwrap() > 0.0);
+            assert!(
+                sm["extra"]["rank0_exchange_bytes_per_step"]
+                    .as_f64()
+                    .unwrap()
+                    > 0.0
+            );
         }
     }
 }
@@ -98,7 +123,7 @@ fn pids_of_rank(mark: &str, rank: usize) -> Vec<i32> {
             continue;
         };
         let vars: Vec<&[u8]> = env.split(|&b| b == 0).collect();
-        let has = |v: &str| vars.iter().any(|x| *x == v.as_bytes());
+        let has = |v: &str| vars.contains(&v.as_bytes());
         if has(mark) && has(&format!("OMPI_COMM_WORLD_RANK={rank}")) {
             out.push(pid);
         }
@@ -138,8 +163,14 @@ fn a_killed_rank_stops_the_run_and_its_checkpoints_restart_it() {
         if have {
             break;
         }
-        assert!(t0.elapsed() < Duration::from_secs(120), "no checkpoint written");
-        assert!(child.try_wait().unwrap().is_none(), "the run ended before the kill");
+        assert!(
+            t0.elapsed() < Duration::from_secs(120),
+            "no checkpoint written"
+        );
+        assert!(
+            child.try_wait().unwrap().is_none(),
+            "the run ended before the kill"
+        );
         std::thread::sleep(Duration::from_millis(50));
     }
     let victims = pids_of_rank(&mark, 1);
@@ -154,7 +185,10 @@ fn a_killed_rank_stops_the_run_and_its_checkpoints_restart_it() {
         if let Some(s) = child.try_wait().unwrap() {
             break s;
         }
-        assert!(t1.elapsed() < Duration::from_secs(60), "the run hangs after a rank died");
+        assert!(
+            t1.elapsed() < Duration::from_secs(60),
+            "the run hangs after a rank died"
+        );
         std::thread::sleep(Duration::from_millis(50));
     };
     let mut err = String::new();
@@ -174,7 +208,17 @@ fn a_killed_rank_stops_the_run_and_its_checkpoints_restart_it() {
     assert_eq!(summary(&o)["status"], "finished");
     let straight = dir.join("straight");
     let out = command()
-        .args(["run", "--interp", "-q", &bar(), "--duration", "2e-3", "--every", "50", "-o"])
+        .args([
+            "run",
+            "--interp",
+            "-q",
+            &bar(),
+            "--duration",
+            "2e-3",
+            "--every",
+            "50",
+            "-o",
+        ])
         .arg(&straight)
         .output()
         .unwrap();

@@ -662,3 +662,40 @@ fn asking_whether_a_signal_stops_the_run_does_not_allocate() {
     let (r, count) = allocations(|| signals.received().map(Signal::name));
     assert_eq!((r, count), (Some("SIGTERM"), 0));
 }
+
+/// One rank's steps of the explicit method across ranks (its element pass, the exchange of
+/// interface forces, the energies summed over the ranks, the agreed failure flags) do not
+/// allocate: three ranks as threads, each counting its own thread's allocations after a
+/// first step (which sizes the engine's boards).
+#[test]
+fn ranked_mesh_steps_do_not_allocate() {
+    use mbdc_runtime::integrators::mesh_dynamics::MeshDynamics;
+    use mbdc_runtime::integrators::mesh_kernels::BlockKernels;
+    use mbdc_runtime::integrators::MeshState;
+    use mbdc_runtime::thread_ranks::ThreadRanks;
+    use mbdc_runtime::{mesh_model, mesh_ranks};
+    use std::sync::Arc;
+    let l = mesh_model::build(&[box_mesh(6, 2, 2)]).unwrap();
+    let counts = ThreadRanks::run(3, |r| {
+        let map = mesh_ranks::rank_map(&l, 3).unwrap();
+        let part = Arc::new(mesh_ranks::rank_part(&l, &map, r.rank()).unwrap().layout);
+        let kernels = BlockKernels::interpreted(&part);
+        let mut md =
+            MeshDynamics::on_ranks(part, &kernels, 1e-7, 0.0, &MeshState::default(), Some(r))
+                .unwrap();
+        let mut st = MeshState::default();
+        md.step().unwrap();
+        md.state(&mut st);
+        let ((), count) = allocations(|| {
+            for _ in 0..10 {
+                md.step().unwrap();
+                md.state(&mut st);
+            }
+        });
+        (count, st.energy.strain)
+    });
+    for (rank, (count, strain)) in counts.iter().enumerate() {
+        assert_eq!(*count, 0, "allocations in rank {rank}'s steps");
+        assert!(*strain > 0.0, "the load deforms the block");
+    }
+}

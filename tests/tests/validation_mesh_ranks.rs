@@ -10,17 +10,33 @@ use mbdc_tests::*;
 
 fn assert_same(name: &str, one: &Trajectory, ranked: &Trajectory, ranks: usize) {
     assert!(one.report.finished, "{name}: {:?}", one.report.failure);
-    assert!(ranked.report.finished, "{name} on {ranks} ranks: {:?}", ranked.report.failure);
+    assert!(
+        ranked.report.finished,
+        "{name} on {ranks} ranks: {:?}",
+        ranked.report.failure
+    );
     assert_eq!(one.frames.len(), ranked.frames.len(), "{name}: frames");
     assert_eq!(one.report.steps, ranked.report.steps);
     let bits = |v: &[[f64; 3]]| v.iter().flatten().map(|x| x.to_bits()).collect::<Vec<_>>();
     let bits6 = |v: &[[f64; 6]]| v.iter().flatten().map(|x| x.to_bits()).collect::<Vec<_>>();
     for (k, (a, b)) in one.frames.iter().zip(&ranked.frames).enumerate() {
         let (a, b) = (&a.mesh, &b.mesh);
-        assert!(bits(&a.u) == bits(&b.u), "{name}, {ranks} ranks, frame {k}: u differs");
-        assert!(bits(&a.v) == bits(&b.v), "{name}, {ranks} ranks, frame {k}: v differs");
-        assert!(bits6(&a.stress) == bits6(&b.stress), "{name}, {ranks} ranks, frame {k}: stress");
-        assert!(bits6(&a.strain) == bits6(&b.strain), "{name}, {ranks} ranks, frame {k}: strain");
+        assert!(
+            bits(&a.u) == bits(&b.u),
+            "{name}, {ranks} ranks, frame {k}: u differs"
+        );
+        assert!(
+            bits(&a.v) == bits(&b.v),
+            "{name}, {ranks} ranks, frame {k}: v differs"
+        );
+        assert!(
+            bits6(&a.stress) == bits6(&b.stress),
+            "{name}, {ranks} ranks, frame {k}: stress"
+        );
+        assert!(
+            bits6(&a.strain) == bits6(&b.strain),
+            "{name}, {ranks} ranks, frame {k}: strain"
+        );
         assert!(
             bits6(&a.plastic_strain) == bits6(&b.plastic_strain),
             "{name}, {ranks} ranks, frame {k}: plastic strain"

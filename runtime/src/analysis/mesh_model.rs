@@ -147,9 +147,15 @@ pub fn element_place(l: &MeshLayout, b: &ElementBlock, e: usize) -> String {
     let (id, node_id) = match &l.halo {
         Some(h) => (
             h.element_ids[b.first_element + e] as usize,
-            nodes.iter().map(|&n| h.node_ids[n as usize] as usize).collect::<Vec<_>>(),
+            nodes
+                .iter()
+                .map(|&n| h.node_ids[n as usize] as usize)
+                .collect::<Vec<_>>(),
         ),
-        None => (e, nodes.iter().map(|&n| n as usize - b.first_node).collect()),
+        None => (
+            e,
+            nodes.iter().map(|&n| n as usize - b.first_node).collect(),
+        ),
     };
     let local: Vec<String> = node_id.iter().map(usize::to_string).collect();
     format!(

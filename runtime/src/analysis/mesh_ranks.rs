@@ -194,7 +194,7 @@ pub fn rank_part(l: &MeshLayout, map: &RankMap, rank: usize) -> Result<RankPart,
     // The part's blocks: its elements, block by block, in the global order.
     let mut part = MeshLayout {
         method: l.method,
-        solver: l.solver.clone(),
+        solver: l.solver,
         ..MeshLayout::default()
     };
     let mut elements = Vec::new();
@@ -221,14 +221,15 @@ pub fn rank_part(l: &MeshLayout, map: &RankMap, rank: usize) -> Result<RankPart,
         let first_node = nodes.partition_point(|&n| (n as usize) < b.first_node);
         let end_node = nodes.partition_point(|&n| (n as usize) < b.first_node + b.nodes);
         let ne = conn.len() / npe;
-        part.blocks.push(crate::contract::mesh_layout::ElementBlock {
-            conn,
-            first_node,
-            nodes: end_node - first_node,
-            first_slot,
-            first_element,
-            ..b.clone()
-        });
+        part.blocks
+            .push(crate::contract::mesh_layout::ElementBlock {
+                conn,
+                first_node,
+                nodes: end_node - first_node,
+                first_slot,
+                first_element,
+                ..b.clone()
+            });
         first_slot += ne * npe;
         first_element += ne;
     }
@@ -268,7 +269,9 @@ pub fn rank_part(l: &MeshLayout, map: &RankMap, rank: usize) -> Result<RankPart,
             halo.ghost_slots += 1;
         }
         halo.send_slots.extend(s.iter().map(|g| own_slot[g]));
-        halo.exchange.send_first.push(3 * halo.send_slots.len() as u32);
+        halo.exchange
+            .send_first
+            .push(3 * halo.send_slots.len() as u32);
         halo.exchange.recv_first.push(3 * halo.ghost_slots as u32);
     }
     // The node → slot plan, in the global (canonical) order.
@@ -276,11 +279,15 @@ pub fn rank_part(l: &MeshLayout, map: &RankMap, rank: usize) -> Result<RankPart,
     for &n in &nodes {
         let n = n as usize;
         for &s in &l.slots[l.first[n] as usize..l.first[n + 1] as usize] {
-            part.slots.push(own_slot.get(&s).copied().unwrap_or_else(|| ghost[&s]));
+            part.slots
+                .push(own_slot.get(&s).copied().unwrap_or_else(|| ghost[&s]));
         }
         part.first.push(part.slots.len() as u32);
     }
-    halo.owned = nodes.iter().map(|&n| map.node_owner[n as usize] == me).collect();
+    halo.owned = nodes
+        .iter()
+        .map(|&n| map.node_owner[n as usize] == me)
+        .collect();
     halo.node_ids = nodes
         .iter()
         .map(|&n| {
@@ -400,7 +407,9 @@ mod tests {
         let l = plate();
         for ranks in [1, 2, 3, 4] {
             let map = rank_map(&l, ranks).unwrap();
-            let parts: Vec<RankPart> = (0..ranks).map(|r| rank_part(&l, &map, r).unwrap()).collect();
+            let parts: Vec<RankPart> = (0..ranks)
+                .map(|r| rank_part(&l, &map, r).unwrap())
+                .collect();
             let mut seen = vec![0; l.elements()];
             for p in &parts {
                 for &e in &p.elements {

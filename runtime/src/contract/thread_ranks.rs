@@ -156,7 +156,11 @@ impl Ranks for ThreadRanks {
         sh.gate.wait();
         for (r, board) in sh.board.iter().enumerate() {
             let b = lock(board);
-            assert_eq!(b.len(), x.len(), "ranks summed vectors of different lengths");
+            assert_eq!(
+                b.len(),
+                x.len(),
+                "ranks summed vectors of different lengths"
+            );
             if r == 0 {
                 x.copy_from_slice(&b);
             } else {
@@ -174,7 +178,9 @@ impl Ranks for ThreadRanks {
         for (i, &p) in halo.peers.iter().enumerate() {
             let mut m = lock(&sh.mail[me * n + p as usize]);
             m.clear();
-            m.extend_from_slice(&send[halo.send_first[i] as usize..halo.send_first[i + 1] as usize]);
+            m.extend_from_slice(
+                &send[halo.send_first[i] as usize..halo.send_first[i + 1] as usize],
+            );
         }
         sh.gate.wait();
         for (i, &p) in halo.peers.iter().enumerate() {

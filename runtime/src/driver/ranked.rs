@@ -355,13 +355,21 @@ pub fn run_ranked_to_dir<S: System>(
     use crate::driver::run_loop::{run, write_run};
     if sys.ranks.rank() == 0 {
         let mut started = false;
-        let r = write_run(sys.whole.layout(), cfg, meta, spec, dir, progress, &mut |obs| {
-            // the writers are open: the other ranks may start
-            started = true;
-            sys.ranks.broadcast(&mut [1.0]);
-            let mut g = Gather::new(sys, Some(obs));
-            run(sys, cfg, &mut g)
-        });
+        let r = write_run(
+            sys.whole.layout(),
+            cfg,
+            meta,
+            spec,
+            dir,
+            progress,
+            &mut |obs| {
+                // the writers are open: the other ranks may start
+                started = true;
+                sys.ranks.broadcast(&mut [1.0]);
+                let mut g = Gather::new(sys, Some(obs));
+                run(sys, cfg, &mut g)
+            },
+        );
         if !started {
             sys.ranks.broadcast(&mut [0.0]);
         }

@@ -319,13 +319,20 @@ impl Assembler {
         let Some(h) = &l.halo else {
             return;
         };
-        debug_assert_eq!(self.strategy, Assembly::Gather, "a rank's part runs the gather");
+        debug_assert_eq!(
+            self.strategy,
+            Assembly::Gather,
+            "a rank's part runs the gather"
+        );
         for (out, &s) in self.send.chunks_exact_mut(3).zip(&h.send_slots) {
             out.copy_from_slice(&self.slots[s as usize]);
         }
         ranks.exchange(&h.exchange, &self.send, &mut self.recv);
         let ghosts = l.total_slots();
-        for (slot, f) in self.slots[ghosts..].iter_mut().zip(self.recv.chunks_exact(3)) {
+        for (slot, f) in self.slots[ghosts..]
+            .iter_mut()
+            .zip(self.recv.chunks_exact(3))
+        {
             slot.copy_from_slice(f);
         }
     }

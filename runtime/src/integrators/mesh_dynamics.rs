@@ -522,7 +522,10 @@ impl MeshDynamics {
             (Some(r), Some(h)) => vec![
                 ("ranks", r.size() as f64),
                 ("rank0_elements", self.layout.elements() as f64),
-                ("rank0_exchange_bytes_per_step", 8.0 * h.exchange.send_len() as f64),
+                (
+                    "rank0_exchange_bytes_per_step",
+                    8.0 * h.exchange.send_len() as f64,
+                ),
             ],
             _ => Vec::new(),
         }
