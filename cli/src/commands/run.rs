@@ -35,6 +35,9 @@ use mbdc_runtime::system::System;
 use crate::render;
 use crate::scene_crate;
 
+#[cfg(feature = "mpi")]
+mod mpi;
+
 /// What to do when a run fails.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
 pub enum FailurePolicy {
@@ -282,7 +285,7 @@ pub const UNFINISHED: &str = "its summary.json is still the one written when it 
 pub fn run(args: Args) -> ExitCode {
     if args.mpi {
         #[cfg(feature = "mpi")]
-        return super::run_mpi::run(&args);
+        return mpi::run(&args);
         #[cfg(not(feature = "mpi"))]
         {
             eprintln!("error: this mbdc was built without MPI: build it with `cargo build --release -p mbdc --features mpi` (which needs Open MPI's headers and libclang: `apt-get install libopenmpi-dev openmpi-bin libclang-dev`), then run `mpirun -n 4 target/release/mbdc run --mpi {}`", args.file.display());

@@ -18,7 +18,7 @@ use std::sync::Arc;
 use mbdc_runtime::ranked::{run_ranked_to_dir, Ranked};
 use mbdc_runtime::ranks::Ranks;
 
-use super::run::{config, load, note_unfinished, print_summary, settings, Args, Progress};
+use super::{config, load, note_unfinished, print_summary, settings, Args, Progress};
 use crate::mpi_ranks::MpiRanks;
 
 /// Runs `mbdc run --mpi`.
@@ -70,7 +70,7 @@ pub fn run(args: &Args) -> ExitCode {
     code
 }
 
-/// [`super::run::simulate`] for one rank.
+/// [`super::simulate`] for one rank.
 fn simulate(
     part: &Ranked<'_, mbdc_runtime::interp::Interp>,
     scene: &mbdc_runtime::scene::Scene,
