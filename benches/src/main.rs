@@ -35,6 +35,7 @@ use mbdc_runtime::system::{ConstraintEval, Need, System, Wrench};
 
 mod checkpoints;
 mod feti;
+mod ranks;
 mod meshes;
 mod output;
 
@@ -81,6 +82,14 @@ fn main() {
             args.get(1).and_then(|s| s.parse().ok()).unwrap_or(16),
             args.get(2).and_then(|s| s.parse().ok()).unwrap_or(2),
         ),
+        Some("ranks") => ranks::ranks(
+            &args
+                .get(1)
+                .map(PathBuf::from)
+                .unwrap_or_else(|| root().join("target/release/mbdc")),
+            args.get(2).and_then(|s| s.parse().ok()).unwrap_or(20),
+            args.get(3).and_then(|s| s.parse().ok()).unwrap_or(3),
+        ),
         Some("profile") => profile(args.get(1).and_then(|s| s.parse().ok()).unwrap_or(200_000)),
         Some("startup") => startup(
             &args
@@ -90,7 +99,7 @@ fn main() {
         ),
         _ => {
             eprintln!(
-                "usage: mbdc-bench steps [ROUNDS] | size | startup [MBDC] | profile [STEPS] | beams [ROUNDS] | meshes [SCALE] [ROUNDS] | meshes-assembly [SCALE] [ROUNDS] | checkpoints [ROUNDS] | output [ROUNDS] [SCALE] | feti [LARGEST] [ROUNDS]"
+                "usage: mbdc-bench steps [ROUNDS] | size | startup [MBDC] | profile [STEPS] | beams [ROUNDS] | meshes [SCALE] [ROUNDS] | meshes-assembly [SCALE] [ROUNDS] | checkpoints [ROUNDS] | output [ROUNDS] [SCALE] | feti [LARGEST] [ROUNDS] | ranks [MBDC] [N] [ROUNDS]"
             );
             std::process::exit(2);
         }
