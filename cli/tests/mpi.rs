@@ -225,3 +225,61 @@ fn a_killed_rank_stops_the_run_and_its_checkpoints_restart_it() {
     assert!(out.status.success());
     same_mesh_files(&straight, &o, "restarted after a killed rank");
 }
+
+/// The `displacement` array of a `.vtu` file.
+fn displacements(vtu: &Path) -> Vec<f64> {
+    let text = std::fs::read_to_string(vtu).expect("a .vtu");
+    let start = text.find(r#"Name="displacement""#).expect("displacements");
+    let body = &text[start..];
+    let body = &body[body.find('>').unwrap() + 1..body.find("</DataArray>").unwrap()];
+    body.split_whitespace()
+        .map(|x| x.parse().expect("a number"))
+        .collect()
+}
+
+/// FETI across ranks: the static hex8 cantilever with 8 subdomains on 2 and 4 ranks gives
+/// the displacements of FETI in one process to round-off (10⁻¹⁰ relative: the interface
+/// vectors are summed rank by rank, not subdomain by subdomain).
+#[test]
+fn feti_on_2_and_4_ranks_gives_the_one_process_displacements() {
+    let dir = scratch("mpi-feti");
+    let text = std::fs::read_to_string(root().join("models/cantilever_static.mbd"))
+        .unwrap()
+        .replace(
+            "mesh_method static }",
+            "mesh_method static; solver feti { subdomains 8; tolerance 1e-12 } }",
+        );
+    assert!(text.contains("solver feti"));
+    let file = dir.join("cantilever_feti.mbd");
+    std::fs::write(&file, text).unwrap();
+    let one = dir.join("one");
+    let out = command()
+        .args(["run", "--interp", "-q", s(&file), "-o", s(&one)])
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let last = |d: &Path| {
+        let mut v: Vec<_> = std::fs::read_dir(d.join("mesh"))
+            .unwrap()
+            .map(|e| e.unwrap().path())
+            .collect();
+        v.sort();
+        displacements(v.last().unwrap())
+    };
+    let want = last(&one);
+    let scale = want.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+    assert!(scale > 1e-4, "the tip deflects: {scale}");
+    for ranks in [2, 4] {
+        let o = dir.join(format!("ranks{ranks}"));
+        let out = mpirun(ranks, &[s(&file), "-o", s(&o)]).output().unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(out.status.success(), "{ranks} ranks: {err}");
+        let got = last(&o);
+        assert_eq!(got.len(), want.len());
+        let diff = got
+            .iter()
+            .zip(&want)
+            .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
+        assert!(diff <= 1e-10 * scale, "{ranks} ranks: {diff:e} of {scale:e}");
+    }
+}
