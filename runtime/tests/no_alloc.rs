@@ -648,6 +648,74 @@ fn implicit_mesh_steps_do_not_allocate_with_either_solver() {
     }
 }
 
+/// FETI across ranks (ranks as threads, each rank on a private pool of two threads): after
+/// the first step, a rank's steps allocate nothing on its own thread or its pool's — the
+/// sums over ranks included (their boards grow on the first use only). Newmark and static,
+/// 2 ranks of 2 subdomains each.
+#[test]
+fn ranked_feti_steps_do_not_allocate() {
+    use mbdc_runtime::integrators::mesh_implicit::MeshImplicit;
+    use mbdc_runtime::integrators::MeshState;
+    use mbdc_runtime::scene::{FetiOptions, MeshMethod, MeshSolver};
+    use mbdc_runtime::thread_ranks::ThreadRanks;
+    for method in [MeshMethod::Newmark, MeshMethod::Static] {
+        let mut s = scene();
+        s.contacts.clear();
+        s.bodies.clear();
+        s.joints.clear();
+        s.forces.clear();
+        s.meshes.push(box_mesh(8, 2, 2));
+        s.simulate.mesh_method = method;
+        s.simulate.mesh_solver = MeshSolver::Feti(FetiOptions {
+            subdomains: 4,
+            ..FetiOptions::default()
+        });
+        let setup = rayon::ThreadPoolBuilder::new()
+            .num_threads(1)
+            .build()
+            .unwrap();
+        let l = setup.install(|| Interp::new(&s).unwrap().layout().meshes.clone());
+        let counts = ThreadRanks::run(2, |r| {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(2)
+                .build()
+                .unwrap();
+            let mut it = pool
+                .install(|| {
+                    MeshImplicit::on_ranks(
+                        l.clone(),
+                        method,
+                        1e-4,
+                        0.0,
+                        &MeshState::default(),
+                        Some(r),
+                    )
+                })
+                .unwrap();
+            let mut st = MeshState::default();
+            pool.install(|| it.advance()).unwrap();
+            it.mesh_state(&mut st);
+            let ((), count) = pool_allocations(&pool, || {
+                for _ in 0..5 {
+                    it.advance().unwrap();
+                    it.mesh_state(&mut st);
+                }
+            });
+            let f = it.feti().unwrap();
+            assert_eq!((f.ranks(), f.subdomains_here().len()), (2, 2));
+            assert!(f.stats().summed_bytes > 0);
+            assert!(st.energy.strain > 0.0, "the load deforms the block");
+            count
+        });
+        assert_eq!(
+            counts,
+            vec![0, 0],
+            "allocations in ranked FETI {} steps",
+            method.name()
+        );
+    }
+}
+
 /// Asking whether to stop, which the run loop does after every step (issue 22: SIGINT and
 /// SIGTERM end a run honestly), allocates nothing: with no signal and with one received.
 #[cfg(unix)]

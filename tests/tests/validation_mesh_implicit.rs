@@ -3,6 +3,8 @@
 //! the run loop. Every test states its reference and its tolerance. The patch tests and
 //! Newmark's exact single-dof solution are unit tests of `integrators/mesh_implicit.rs`.
 
+use mbdc_runtime::scene::Scene;
+use mbdc_runtime::system::{Pose, System, Twist};
 use mbdc_tests::*;
 
 /// A steel bar of bar2 elements along x, 1 m, area 1 cm², `E` 200 GPa (`EA` = 2e7 N),
@@ -290,7 +292,16 @@ model m {
 /// A hex8 cantilever (ν = 0.3) under a tip traction and its weight, solved with
 /// `simulate_line` and the solver block `solver`: every frame's displacements.
 fn feti_cantilever(simulate_line: &str, solver: &str) -> Trajectory {
-    let scene = load_text(&format!(
+    let scene = feti_cantilever_scene(simulate_line, solver);
+    let (h, t) = (scene.simulate.step, scene.simulate.duration);
+    let tr = simulate(&scene, method("staggered"), h, t, 1);
+    assert!(tr.report.finished, "{solver}: {:?}", tr.report.failure);
+    tr
+}
+
+/// The scene of [`feti_cantilever`].
+fn feti_cantilever_scene(simulate_line: &str, solver: &str) -> Scene {
+    load_text(&format!(
         r#"
 model cantilever {{
   material steel {{ E 200 GPa; nu 0.3; rho 7800 kg/m^3 }}
@@ -309,11 +320,123 @@ model cantilever {{
   }}
 }}
 "#
-    ));
-    let (h, t) = (scene.simulate.step, scene.simulate.duration);
-    let tr = simulate(&scene, method("staggered"), h, t, 1);
-    assert!(tr.report.finished, "{solver}: {:?}", tr.report.failure);
-    tr
+    ))
+}
+
+/// The interpreter's system as one rank of a distributed run: what `mbdc run --mpi` hands
+/// the integrators, with ranks as threads.
+struct Ranked {
+    inner: mbdc_runtime::interp::Interp,
+    ranks: std::sync::Arc<dyn mbdc_runtime::ranks::Ranks>,
+}
+
+impl System for Ranked {
+    fn layout(&self) -> &mbdc_runtime::system::Layout {
+        self.inner.layout()
+    }
+    fn initial_state(&self, pose: &mut [Pose], twist: &mut [Twist]) {
+        self.inner.initial_state(pose, twist);
+    }
+    fn applied(
+        &self,
+        t: f64,
+        pose: &[Pose],
+        twist: &[Twist],
+        out: &mut [mbdc_runtime::system::Wrench],
+    ) {
+        self.inner.applied(t, pose, twist, out);
+    }
+    fn constraints(
+        &self,
+        t: f64,
+        pose: &[Pose],
+        twist: &[Twist],
+        need: mbdc_runtime::system::Need,
+        out: &mut mbdc_runtime::system::ConstraintEval,
+    ) {
+        self.inner.constraints(t, pose, twist, need, out);
+    }
+    fn potential_energy(&self, t: f64, pose: &[Pose]) -> f64 {
+        self.inner.potential_energy(t, pose)
+    }
+    fn update_locks(&self, pose: &[Pose], twist: &[Twist], active: &mut [bool]) -> Option<usize> {
+        self.inner.update_locks(pose, twist, active)
+    }
+    fn has_velocity_forces(&self) -> bool {
+        self.inner.has_velocity_forces()
+    }
+    fn has_state_forces(&self) -> bool {
+        self.inner.has_state_forces()
+    }
+    fn ranks(&self) -> Option<std::sync::Arc<dyn mbdc_runtime::ranks::Ranks>> {
+        Some(self.ranks.clone())
+    }
+}
+
+/// FETI across ranks through the run loop (`mesh_implicit::make` takes the system's
+/// ranks): the static and the 4-step Newmark cantilever above, 8 subdomains, on 3 ranks as
+/// threads. Reference: the same run in one process. Tolerance: none — every rank's every
+/// frame has the one-process displacements bit for bit (the sums over ranks have at most
+/// two non-zero terms per entry; `integrators/mesh_feti.rs` says why), and the same FETI
+/// iterations; the stats report the ranks and the bytes summed.
+#[test]
+fn feti_across_ranks_gives_every_rank_the_run_of_one_process() {
+    use mbdc_runtime::run_loop::{self, OnFailure, RunConfig, Watchdog};
+    for line in [
+        "duration 1 s; step 1 s; mesh_method static",
+        "duration 2 ms; step 0.5 ms; mesh_method newmark",
+    ] {
+        let solver = "solver feti { subdomains 8; preconditioner dirichlet; tolerance 1e-11 }";
+        let one = feti_cantilever(line, solver);
+        let scene = feti_cantilever_scene(line, solver);
+        let (h, t) = (scene.simulate.step, scene.simulate.duration);
+        let runs = mbdc_runtime::thread_ranks::ThreadRanks::run(3, |ranks| {
+            let sys = Ranked {
+                inner: mbdc_runtime::interp::Interp::new(&scene).expect("interpretable"),
+                ranks,
+            };
+            let cfg = RunConfig {
+                duration: t,
+                step: h,
+                method: method("staggered"),
+                every: 1,
+                on_failure: OnFailure::Stop,
+                watchdog: Watchdog::for_scale(run_loop::length_scale(&sys), true),
+                checkpoint: None,
+                resume: None,
+            };
+            let mut rec = Recorder(Vec::new());
+            let report = run_loop::run(&sys, &cfg, &mut rec);
+            Trajectory {
+                frames: rec.0,
+                report,
+            }
+        });
+        for (rank, tr) in runs.iter().enumerate() {
+            assert!(tr.report.finished, "rank {rank}: {:?}", tr.report.failure);
+            assert_eq!(stat(tr, "feti_ranks"), 3.0);
+            assert!(stat(tr, "feti_bytes_per_iteration") > 0.0);
+            assert!(stat(tr, "feti_bytes_last_solve") > 0.0);
+            assert!(stat(tr, "feti_subdomains_here") >= 2.0);
+            assert_eq!(
+                stat(tr, "feti_iterations_max"),
+                stat(&one, "feti_iterations_max")
+            );
+            assert_eq!(tr.frames.len(), one.frames.len());
+            for (a, b) in tr.frames.iter().zip(&one.frames) {
+                let same = a
+                    .mesh
+                    .u
+                    .iter()
+                    .flatten()
+                    .zip(b.mesh.u.iter().flatten())
+                    .all(|(x, y)| x.to_bits() == y.to_bits());
+                assert!(same, "{line}: rank {rank} at t = {}", a.t);
+            }
+        }
+        assert_eq!(stat(&one, "feti_ranks"), 1.0);
+        assert_eq!(stat(&one, "feti_bytes_last_solve"), 0.0);
+    }
 }
 
 /// Issue 17, FETI through the language and the run loop: `solver feti { subdomains 8 }`

@@ -36,6 +36,7 @@ use super::{Integrator, State, StepError, StepInfo};
 use crate::analysis::mesh_model::{critical_step, elastic, element_x0, options};
 use crate::analysis::mesh_stiffness::{self, MeshStiffness};
 use crate::contract::mesh_layout::MeshLayout;
+use crate::contract::ranks::Ranks;
 use crate::contract::scene::{MeshMethod, MeshSolver};
 use crate::contract::system::System;
 use crate::kernels::fn1;
@@ -161,6 +162,24 @@ impl MeshImplicit {
         t0: f64,
         start: &MeshState,
     ) -> Result<MeshImplicit, super::StartError> {
+        MeshImplicit::on_ranks(layout, method, h, t0, start, None)
+    }
+
+    /// [`MeshImplicit::new`] as one rank of `ranks` (collective: every rank calls it with
+    /// the same layout): FETI then factors and iterates only this rank's subdomains
+    /// ([`Feti::on_ranks`]) and hands every rank the whole displacement; the rest of the
+    /// analysis (the direct solver too) is replicated. `None` is a run in one process.
+    ///
+    /// # Errors
+    /// What [`MeshImplicit::new`] refuses; fewer FETI subdomains than ranks.
+    pub fn on_ranks(
+        layout: Arc<MeshLayout>,
+        method: MeshMethod,
+        h: f64,
+        t0: f64,
+        start: &MeshState,
+        ranks: Option<Arc<dyn Ranks>>,
+    ) -> Result<MeshImplicit, super::StartError> {
         let l = &*layout;
         if let Some(e) = mesh_stiffness::linear_refusal(l, method) {
             return Err(super::StartError::Invalid(e.to_string()));
@@ -217,10 +236,23 @@ impl MeshImplicit {
             }
             MeshSolver::Feti(opts) => {
                 let d = (!diag.is_empty()).then_some(&diag[..]);
-                let feti = Feti::new(l, asm, d, opts).map_err(super::StartError::Invalid)?;
+                let feti =
+                    Feti::on_ranks(l, asm, d, opts, ranks).map_err(super::StartError::Invalid)?;
                 let t = feti.tearing();
+                let spread = if feti.ranks() > 1 {
+                    let here = feti.subdomains_here();
+                    format!(
+                        ", on {} ranks (this rank {}: subdomains {}..{})",
+                        feti.ranks(),
+                        feti.rank(),
+                        here.start,
+                        here.end
+                    )
+                } else {
+                    String::new()
+                };
                 notice = Some(format!(
-                    "feti: {} subdomains ({} floating, {} rigid-body modes), {} interface multipliers, preconditioner {}",
+                    "feti: {} subdomains ({} floating, {} rigid-body modes), {} interface multipliers, preconditioner {}{spread}",
                     t.subdomains.len(),
                     t.floating(),
                     t.modes(),
@@ -567,7 +599,8 @@ impl MeshImplicit {
         self.residual
     }
 
-    /// Stored entries of the factor `L` (of every subdomain's factors under FETI).
+    /// Stored entries of the factor `L` (of every subdomain's factors under FETI: this
+    /// rank's subdomains when it runs across ranks).
     pub fn factor_nnz(&self) -> usize {
         match &self.solver {
             LinearSolve::Direct(c) => c.factor_nnz(),
@@ -640,6 +673,13 @@ impl<S: System> Integrator<S> for MeshImplicit {
                 ("feti_multipliers", t.multipliers.len() as f64),
                 ("feti_iterations_last", f64::from(st.iterations)),
                 ("feti_iterations_max", f64::from(st.max_iterations)),
+                ("feti_ranks", f.ranks() as f64),
+                ("feti_subdomains_here", f.subdomains_here().len() as f64),
+                (
+                    "feti_bytes_per_iteration",
+                    f.summed_bytes_per_iteration() as f64,
+                ),
+                ("feti_bytes_last_solve", st.summed_bytes as f64),
             ]);
         }
         v
@@ -711,12 +751,13 @@ pub(super) fn make<'a, S: System + 'a>(
             l.rows
         )));
     }
-    Ok(Box::new(MeshImplicit::new(
+    Ok(Box::new(MeshImplicit::on_ranks(
         l.meshes.clone(),
         method,
         h,
         start.t,
         &start.mesh,
+        sys.ranks(),
     )?))
 }
 
