@@ -35,9 +35,9 @@ use mbdc_runtime::system::{ConstraintEval, Need, System, Wrench};
 
 mod checkpoints;
 mod feti;
-mod ranks;
 mod meshes;
 mod output;
+mod ranks;
 
 fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..")

@@ -67,8 +67,7 @@ fn one(mbdc: &Path, file: &Path, out: &Path, ranks: Option<usize>, threads: usiz
         .expect("mbdc (or mpirun) runs");
     assert!(status.success(), "{c:?} failed");
     let s: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap())
-            .unwrap();
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
     let steps = s["steps"].as_f64().unwrap();
     let wall = s["wall_time"].as_f64().unwrap();
     let bytes = s["extra"]["rank0_exchange_bytes_per_step"]
@@ -106,7 +105,9 @@ pub fn ranks(mbdc: &Path, n: usize, rounds: usize) {
         "hex8 one-point bar {}×{n}×{n}: {elements} elements, {steps} steps, best of {rounds}",
         4 * n
     );
-    println!("| run | µs per step | element updates/s | vs 1 thread | bytes sent per step (rank 0) |");
+    println!(
+        "| run | µs per step | element updates/s | vs 1 thread | bytes sent per step (rank 0) |"
+    );
     println!("|---|---|---|---|---|");
     for ((name, _, _), (t, b)) in configs.iter().zip(best) {
         println!(

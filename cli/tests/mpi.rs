@@ -257,7 +257,11 @@ fn feti_on_2_and_4_ranks_gives_the_one_process_displacements() {
         .args(["run", "--interp", "-q", s(&file), "-o", s(&one)])
         .output()
         .unwrap();
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let last = |d: &Path| {
         let mut v: Vec<_> = std::fs::read_dir(d.join("mesh"))
             .unwrap()
@@ -280,6 +284,9 @@ fn feti_on_2_and_4_ranks_gives_the_one_process_displacements() {
             .iter()
             .zip(&want)
             .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
-        assert!(diff <= 1e-10 * scale, "{ranks} ranks: {diff:e} of {scale:e}");
+        assert!(
+            diff <= 1e-10 * scale,
+            "{ranks} ranks: {diff:e} of {scale:e}"
+        );
     }
 }
