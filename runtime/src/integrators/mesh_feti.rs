@@ -1115,6 +1115,33 @@ mod tests {
         (st.u.as_flattened().to_vec(), s)
     }
 
+    /// A FETI run stopped loosely (interface tolerance 10⁻²) leaves a global residual
+    /// above the warning threshold, and the run says so at its end; at the default
+    /// tolerance it does not.
+    #[test]
+    fn a_loose_feti_tolerance_is_reported() {
+        let l = cantilever(ElementKind::Quad4PlaneStress, [32, 8, 0], [4.0, 1.0, 0.0]);
+        let (_, loose) = run(
+            &l,
+            MeshMethod::Static,
+            feti(8, FetiPreconditioner::None, 1e-2),
+        );
+        let w = loose.residual_warning().expect("a warning");
+        assert!(loose.residual() > super::super::mesh_implicit::RESIDUAL_WARNING);
+        assert!(w.contains("lower `tolerance`"), "{w}");
+        let (_, tight) = run(
+            &l,
+            MeshMethod::Static,
+            feti(8, FetiPreconditioner::Dirichlet, 1e-10),
+        );
+        assert_eq!(
+            tight.residual_warning(),
+            None,
+            "residual {}",
+            tight.residual()
+        );
+    }
+
     fn rel_diff(a: &[f64], b: &[f64]) -> f64 {
         let scale = b.iter().fold(0.0f64, |m, x| m.max(x.abs()));
         a.iter()

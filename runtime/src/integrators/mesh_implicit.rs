@@ -43,6 +43,11 @@ use crate::kernels::fn1;
 use crate::kernels::solid::{self, ElementResponse, MAX_NODES};
 use crate::linalg::{Definiteness, LinalgError, SparseCholesky};
 
+/// The relative residual `‖A u − b‖/‖b‖` of an implicit analysis's linear solves above
+/// which the run warns ([`MeshImplicit::residual_warning`]): a direct factorization leaves
+/// round-off (10⁻¹⁵–10⁻¹²), FETI at its default tolerance about 10⁻⁹.
+pub const RESIDUAL_WARNING: f64 = 1e-6;
+
 /// The meshes' implicit integrator (Newmark) or static solver (see the module doc).
 pub struct MeshImplicit {
     layout: Arc<MeshLayout>,
@@ -591,6 +596,23 @@ impl MeshImplicit {
         self.elements()
     }
 
+    /// Said at the end of a run whose linear solves left a relative residual above
+    /// [`RESIDUAL_WARNING`] (or not finite): the displacements are then not to the accuracy
+    /// the solver's tolerance suggests, and a run that exits 0 must say so.
+    pub fn residual_warning(&self) -> Option<String> {
+        if self.residual <= RESIDUAL_WARNING {
+            return None;
+        }
+        let what = match &self.solver {
+            LinearSolve::Feti(_) => "FETI stopped at its `tolerance` on the interface problem, which leaves this much in the whole one: lower `tolerance` in `solver feti { … }`",
+            _ => "the stiffness is close to singular: check the supports (a part held nowhere), the materials' units and very thin or distorted elements",
+        };
+        Some(format!(
+            "the linear solves' largest relative residual ‖A u − b‖/‖b‖ is {:.2e}, above {RESIDUAL_WARNING:.0e}: the displacements are not to the solver's accuracy; {what}",
+            self.residual
+        ))
+    }
+
     /// The largest relative residual `‖A u − b‖/‖b‖` of the solves so far: every static
     /// solve (`A = K`; with glues over the dofs off the glued interfaces, whose equations
     /// hold only with the interface force), and Newmark's FETI solves (`A = K + 4/h² M`); 0 for Newmark's
@@ -686,6 +708,9 @@ impl<S: System> Integrator<S> for MeshImplicit {
     }
     fn take_notice(&mut self) -> Option<String> {
         self.notice.take()
+    }
+    fn end_notice(&self) -> Option<String> {
+        self.residual_warning()
     }
     /// Every value carried from one step to the next: the time, the displacement, velocity
     /// and acceleration (and the displacement before, for the work), the loads and
