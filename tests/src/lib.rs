@@ -146,6 +146,27 @@ impl Observer for Recorder {
     }
 }
 
+/// The run settings of [`simulate`]: stop on failure, the watchdog on with the work of
+/// forces and drivers booked.
+fn watched_config(
+    sys: &Interp,
+    method: MethodSpec,
+    h: f64,
+    duration: f64,
+    every: u32,
+) -> RunConfig {
+    RunConfig {
+        duration,
+        step: h,
+        method,
+        every,
+        on_failure: OnFailure::Stop,
+        watchdog: Watchdog::for_scale(run_loop::length_scale(sys), true),
+        checkpoint: None,
+        resume: None,
+    }
+}
+
 /// Run `scene` through the interpreter with `method` and step `h` for `duration`, keeping a
 /// frame every `every` steps. The watchdog is on and books the work of forces and drivers
 /// whatever the scene (`energy_sources` true: for a scene without them `W` stays 0 up to
@@ -159,16 +180,7 @@ pub fn simulate(
     every: u32,
 ) -> Trajectory {
     let sys = Interp::new(scene).expect("interpretable scene");
-    let cfg = RunConfig {
-        duration,
-        step: h,
-        method,
-        every,
-        on_failure: OnFailure::Stop,
-        watchdog: Watchdog::for_scale(run_loop::length_scale(&sys), true),
-        checkpoint: None,
-        resume: None,
-    };
+    let cfg = watched_config(&sys, method, h, duration, every);
     let mut rec = Recorder(Vec::new());
     let report = run_loop::run(&sys, &cfg, &mut rec);
     Trajectory {
@@ -242,16 +254,7 @@ pub fn simulate_on_ranks(
 ) -> Trajectory {
     use mbdc_runtime::ranked::{Gather, Ranked};
     let sys = Interp::new(scene).expect("interpretable scene");
-    let cfg = RunConfig {
-        duration,
-        step: h,
-        method,
-        every,
-        on_failure: OnFailure::Stop,
-        watchdog: Watchdog::for_scale(run_loop::length_scale(&sys), true),
-        checkpoint: None,
-        resume: None,
-    };
+    let cfg = watched_config(&sys, method, h, duration, every);
     let mut runs = mbdc_runtime::thread_ranks::ThreadRanks::run(ranks, |r| {
         let part = Ranked::new(&sys, r).unwrap_or_else(|e| panic!("{e}"));
         let mut rec = Recorder(Vec::new());

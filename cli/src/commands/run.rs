@@ -397,13 +397,7 @@ pub fn simulate<S: System>(sys: &S, scene: &Scene, args: &Args) -> ExitCode {
             if !args.quiet || report.failure.is_some() || report.interrupted.is_some() {
                 print_summary(&summary, &dir);
             }
-            if let Some(i) = &report.interrupted {
-                mbdc_runtime::app::exit_code(i)
-            } else if report.finished {
-                ExitCode::SUCCESS
-            } else {
-                ExitCode::FAILURE
-            }
+            exit_code(&report)
         }
         Err(e) => {
             eprintln!("error: writing the output folder {}: {e}", dir.display());
@@ -415,6 +409,18 @@ pub fn simulate<S: System>(sys: &S, scene: &Scene, args: &Args) -> ExitCode {
     // plots of whatever frames were written, also when the run stopped early
     crate::plot::run_plots::after_run(&dir, args.quiet);
     code
+}
+
+/// A finished run's exit code: the signal's for an interrupted run, success for one that
+/// reached its end, failure otherwise.
+pub(crate) fn exit_code(report: &run_loop::RunReport) -> ExitCode {
+    if let Some(i) = &report.interrupted {
+        mbdc_runtime::app::exit_code(i)
+    } else if report.finished {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::FAILURE
+    }
 }
 
 /// The summary's energy-balance line: the terms where the run ended, the error and the

@@ -18,7 +18,7 @@ use std::sync::Arc;
 use mbdc_runtime::ranked::{run_ranked_to_dir, Ranked};
 use mbdc_runtime::ranks::Ranks;
 
-use super::{config, load, note_unfinished, print_summary, settings, Args, Progress};
+use super::{config, exit_code, load, note_unfinished, print_summary, settings, Args, Progress};
 use crate::mpi_ranks::MpiRanks;
 
 /// Runs `mbdc run --mpi`.
@@ -151,13 +151,7 @@ fn simulate(
                     print_summary(&summary, &dir);
                 }
             }
-            if let Some(i) = &report.interrupted {
-                mbdc_runtime::app::exit_code(i)
-            } else if report.finished {
-                ExitCode::SUCCESS
-            } else {
-                ExitCode::FAILURE
-            }
+            exit_code(&report)
         }
         Err(e) => {
             if lead {
