@@ -101,6 +101,7 @@ impl InterpRunner {
             max_violation: (0.0, String::new()),
             max_relative_violation: (0.0, String::new(), 0.0),
             max_energy_drift: 0.0,
+            max_spin: (0.0, String::new()),
             energy: Default::default(),
             stats: Vec::new(),
             warnings: Vec::new(),
