@@ -1893,6 +1893,17 @@ pub(crate) fn write_run(
             serde_json::Value::Number(v),
         );
     }
+    // the accuracy rule's measure of the run: steps per turn of the fastest body's peak spin
+    // (not for the methods whose run step is only their output interval)
+    let own_steps = matches!(summary.method.as_str(), "dopri5" | "dop853" | "state_time");
+    if report.max_spin.0 > 0.0 && !own_steps {
+        let per_turn = std::f64::consts::TAU / (report.step * report.max_spin.0);
+        if let Some(v) = serde_json::Number::from_f64((per_turn * 10.0).round() / 10.0) {
+            summary
+                .extra
+                .insert("steps_per_turn".into(), serde_json::Value::Number(v));
+        }
+    }
     if !layout.meshes.is_empty() {
         // The meshes' energy balance at the last frame, term by term (J).
         let e = &obs.mesh_energy;
