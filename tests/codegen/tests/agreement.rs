@@ -8,6 +8,10 @@ use mbdc_runtime::compiled::CompiledModel;
 use mbdc_runtime::interp::Interp;
 
 struct Agree {
+    /// This test's share of the visits: those whose index is `part` modulo [`PARTS`].
+    part: usize,
+    /// Visits so far (of every part).
+    visits: usize,
     checked: usize,
     exact: usize,
     values: usize,
@@ -17,6 +21,10 @@ struct Agree {
 
 impl Visitor for Agree {
     fn visit<M: CompiledModel>(&mut self, file: &str, layout: &str) {
+        self.visits += 1;
+        if (self.visits - 1) % PARTS != self.part {
+            return;
+        }
         let path = format!("{}/../../models/{file}", env!("CARGO_MANIFEST_DIR"));
         let loaded = mbdc_compiler::load_file(&path, &[]);
         let Some(scene) = loaded.scene else {
@@ -96,9 +104,15 @@ impl Visitor for Agree {
     }
 }
 
-#[test]
-fn generated_and_interpreted_runs_agree() {
+/// The visits are shared between [`PARTS`] tests, which the test harness runs on as many
+/// threads as the machine has cores (one test took 2.5 minutes of CI's 2 cores alone).
+const PARTS: usize = 4;
+
+/// Part `part` of the comparison: its runs agree; returns how many it compared.
+fn agree(part: usize) -> usize {
     let mut a = Agree {
+        part,
+        visits: 0,
         checked: 0,
         exact: 0,
         values: 0,
@@ -107,12 +121,32 @@ fn generated_and_interpreted_runs_agree() {
     };
     visit_all(&mut a);
     eprintln!(
-        "{} runs compared, {} of {} values bit-identical",
+        "part {part}: {} runs compared, {} of {} values bit-identical",
         a.checked, a.exact, a.values
     );
     for s in &a.skipped {
         eprintln!("skipped: {s}");
     }
-    assert!(a.checked >= 7 * 2 * 6, "only {} runs", a.checked);
     assert!(a.failures.is_empty(), "{}", a.failures.join("\n"));
+    a.checked
+}
+
+#[test]
+fn generated_and_interpreted_runs_agree_part_0() {
+    assert!(agree(0) >= 7 * 2 * 6 / PARTS, "too few runs");
+}
+
+#[test]
+fn generated_and_interpreted_runs_agree_part_1() {
+    assert!(agree(1) >= 7 * 2 * 6 / PARTS, "too few runs");
+}
+
+#[test]
+fn generated_and_interpreted_runs_agree_part_2() {
+    assert!(agree(2) >= 7 * 2 * 6 / PARTS, "too few runs");
+}
+
+#[test]
+fn generated_and_interpreted_runs_agree_part_3() {
+    assert!(agree(3) >= 7 * 2 * 6 / PARTS, "too few runs");
 }
