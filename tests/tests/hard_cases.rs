@@ -948,7 +948,7 @@ fn right_or_loud(
 }
 
 /// The angle the squeezer's crank turns through from its start to t = 0.03 s (rad).
-const SQUEEZER_TRAVEL: f64 = 15.81077119629904 + 0.0617138900142764496358948458001;
+const SQUEEZER_TRAVEL: f64 = 15.81077119629904 + 0.061_713_890_014_276_45;
 
 /// Case 12 (millimetre links, a stiff spring, a crank spun to 1140 rad/s in 30 ms): Andrews'
 /// squeezer (`models/hard/squeezer.mbd`) against the test set's reference at t = 0.03 s, every

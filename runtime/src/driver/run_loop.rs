@@ -610,11 +610,7 @@ fn persist_loop(
     report.max_violation.1 = name(j[0]);
     report.max_relative_violation.1 = name(j[1]);
     persist::f64(v, "run.max_spin", &mut report.max_spin.0);
-    let mut b = [layout
-        .body_names
-        .iter()
-        .position(|n| *n == report.max_spin.1)
-        .map_or(u64::MAX, |i| i as u64)];
+    let mut b = [body_index(layout, &report.max_spin.1) as u64];
     v.u64s("run.max_spin_body", &mut b);
     report.max_spin.1 = layout
         .body_names
@@ -754,6 +750,9 @@ pub fn run<S: System>(sys: &S, cfg: &RunConfig, obs: &mut dyn Observer) -> RunRe
     let mut loader = cfg.resume.as_ref().map(|r| persist::Loader::new(&r.run));
     // the fastest spin of the initial state, which the pre-run step check has judged
     let initial_spin = fastest_spin(&start).0;
+    // the body of the fastest spin so far (its name goes into the report at the end and in
+    // checkpoints: a step allocates nothing)
+    let mut spin_body = usize::MAX;
     // where the current attempt started, and the steps it has taken (a restart continues
     // both)
     let mut t_attempt = 0.0;
@@ -771,6 +770,7 @@ pub fn run<S: System>(sys: &S, cfg: &RunConfig, obs: &mut dyn Observer) -> RunRe
             &mut t_attempt,
             &mut k_done,
         );
+        spin_body = body_index(layout, &report.max_spin.1);
         initial_frame = false;
     }
     let mut clock = cfg.checkpoint.as_ref().map(|spec| CheckpointClock {
@@ -800,7 +800,7 @@ pub fn run<S: System>(sys: &S, cfg: &RunConfig, obs: &mut dyn Observer) -> RunRe
             }
             probe.holonomic(sys, &start);
             track(layout, &probe, &ew, &lengths, &mut report);
-            track_spin(layout, &start, &mut report);
+            track_spin(&start, &mut report.max_spin.0, &mut spin_body);
             emit(sys, &start, 0, &mut probe, obs, &ew);
         }
         let mut integ = match made {
@@ -878,7 +878,7 @@ pub fn run<S: System>(sys: &S, cfg: &RunConfig, obs: &mut dyn Observer) -> RunRe
                 ew.observe(sys, &st, impact_left > 0);
                 impact_left = impact_left.saturating_sub(1);
                 track(layout, &probe, &ew, &lengths, &mut report);
-                track_spin(layout, &st, &mut report);
+                track_spin(&st, &mut report.max_spin.0, &mut spin_body);
                 check(sys, cfg, &st, &probe, report.steps, h, &ew, &grace).or_else(|| {
                     joint_check(
                         sys,
@@ -908,6 +908,7 @@ pub fn run<S: System>(sys: &S, cfg: &RunConfig, obs: &mut dyn Observer) -> RunRe
                             let mut out = persist::Saver::new();
                             let mut run = persist::Saver::new();
                             let synced = obs.save_output(&mut out);
+                            name_spin(layout, spin_body, &mut report);
                             persist_loop(
                                 &mut run,
                                 layout,
@@ -1029,6 +1030,7 @@ pub fn run<S: System>(sys: &S, cfg: &RunConfig, obs: &mut dyn Observer) -> RunRe
             }
         ));
     }
+    name_spin(layout, spin_body, &mut report);
     if let Some(m) = steps_per_turn_warning(&report, &cfg.method, h, initial_spin) {
         report.warnings.push(m);
     }
@@ -1076,15 +1078,29 @@ fn fastest_spin(st: &State) -> (f64, usize) {
         .fold((0.0, usize::MAX), |a, b| if b.0 > a.0 { b } else { a })
 }
 
-/// Fold the fastest spin of `st` into the report ([`RunReport::max_spin`]).
-fn track_spin(layout: &Layout, st: &State, report: &mut RunReport) {
+/// Fold the fastest spin of `st` into the largest so far, `max` (rad/s), and its body's index.
+fn track_spin(st: &State, max: &mut f64, body: &mut usize) {
     let (w, i) = fastest_spin(st);
-    if w > report.max_spin.0 {
-        report.max_spin.0 = w;
-        if layout.body_names.get(i) != Some(&report.max_spin.1) {
-            report.max_spin.1.clone_from(&layout.body_names[i]);
-        }
+    if w > *max {
+        *max = w;
+        *body = i;
     }
+}
+
+/// The name of the fastest spin's body into the report ([`RunReport::max_spin`]).
+fn name_spin(layout: &Layout, body: usize, report: &mut RunReport) {
+    if let Some(n) = layout.body_names.get(body) {
+        report.max_spin.1.clone_from(n);
+    }
+}
+
+/// The index of the body named `name` (`usize::MAX` for none).
+fn body_index(layout: &Layout, name: &str) -> usize {
+    layout
+        .body_names
+        .iter()
+        .position(|n| n == name)
+        .unwrap_or(usize::MAX)
 }
 
 /// The end-of-run warning of a motion that turned faster than the step resolves: the peak
