@@ -251,9 +251,10 @@ impl Observer for Progress {
         b.set_message(format!("t = {t:.4} s"));
     }
     fn notice(&mut self, m: &str) {
+        let line = mbdc_runtime::app::notice_line(m);
         match &self.bar {
-            Some(b) => b.suspend(|| eprintln!("note: {m}")),
-            None => eprintln!("note: {m}"),
+            Some(b) => b.suspend(|| eprintln!("{line}")),
+            None => eprintln!("{line}"),
         }
     }
     fn stop_requested(&mut self) -> Option<&'static str> {

@@ -214,6 +214,16 @@ pub fn output_spec(scene: &Scene, s: &Settings) -> crate::contract::scene::Outpu
     spec
 }
 
+/// A run's notice as the terminal shows it: `note: ` before it, unless it says itself what it
+/// is (a warning at the end of a run starts with `warning:`).
+pub fn notice_line(m: &str) -> String {
+    if m.starts_with("warning:") || m.starts_with("note:") {
+        m.to_string()
+    } else {
+        format!("note: {m}")
+    }
+}
+
 /// The lines `mbdc run --assemble` prints about an assembly.
 pub fn assembly_report(a: &crate::driver::assemble::Assembly) -> Vec<String> {
     let mut v = vec![format!(
@@ -341,7 +351,7 @@ impl Observer for Reporter<'_> {
                 m.replace('\\', "\\\\").replace('\n', "\\n")
             );
         } else {
-            eprintln!("note: {m}");
+            eprintln!("{}", notice_line(m));
         }
     }
     fn stop_requested(&mut self) -> Option<&'static str> {
