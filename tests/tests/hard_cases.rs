@@ -32,10 +32,7 @@ fn each_method(
                 true
             }
             Some(f) => {
-                assert!(
-                    !f.location.is_empty() && !f.cause.is_empty() && f.hint.is_some(),
-                    "{model}: {name}: {f}"
-                );
+                assert_complete(&format!("{model}: {name}"), f);
                 eprintln!("{model}: {name} stopped: {f}");
                 false
             }
@@ -43,6 +40,14 @@ fn each_method(
         out.push((name, good));
     }
     out
+}
+
+/// A stop's report names where, why and what to try.
+fn assert_complete(what: &str, f: &run_loop::Failure) {
+    assert!(
+        !f.location.is_empty() && !f.cause.is_empty() && f.hint.is_some(),
+        "{what}: {f}"
+    );
 }
 
 fn passed(results: &[(&str, bool)], name: &str) -> bool {
@@ -926,10 +931,7 @@ fn right_or_loud(
 ) -> bool {
     let r = &tr.report;
     if let Some(f) = &r.failure {
-        assert!(
-            !f.location.is_empty() && !f.cause.is_empty() && f.hint.is_some(),
-            "{what}: {f}"
-        );
+        assert_complete(what, f);
         return true;
     }
     if !r.warnings.is_empty() || warned_before {

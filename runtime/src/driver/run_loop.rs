@@ -271,6 +271,28 @@ pub struct RunReport {
     pub warnings: Vec<String>,
 }
 
+impl RunReport {
+    /// The report of a run with step `step` that has taken no step yet.
+    pub fn started(step: f64) -> RunReport {
+        RunReport {
+            steps: 0,
+            t_end: 0.0,
+            step,
+            finished: false,
+            failure: None,
+            interrupted: None,
+            retries: 0,
+            max_violation: (0.0, String::new()),
+            max_relative_violation: (0.0, String::new(), 0.0),
+            max_energy_drift: 0.0,
+            max_spin: (0.0, String::new()),
+            energy: EnergyBalance::default(),
+            stats: Vec::new(),
+            warnings: Vec::new(),
+        }
+    }
+}
+
 /// Buffers for evaluating frames.
 struct Probe {
     ce: ConstraintEval,
@@ -683,22 +705,7 @@ pub fn run<S: System>(sys: &S, cfg: &RunConfig, obs: &mut dyn Observer) -> RunRe
     let mut start = State::initial(sys);
     let mut st = start.clone();
     let mut probe = Probe::new(sys);
-    let mut report = RunReport {
-        steps: 0,
-        t_end: 0.0,
-        step: h,
-        finished: false,
-        failure: None,
-        interrupted: None,
-        retries: 0,
-        max_violation: (0.0, String::new()),
-        max_relative_violation: (0.0, String::new(), 0.0),
-        max_energy_drift: 0.0,
-        max_spin: (0.0, String::new()),
-        energy: EnergyBalance::default(),
-        stats: Vec::new(),
-        warnings: Vec::new(),
-    };
+    let mut report = RunReport::started(h);
     if let Err(cause) = crate::analysis::input_limits::check_run(cfg.step, cfg.duration) {
         report.failure = Some(Failure {
             time: 0.0,
@@ -1069,6 +1076,17 @@ fn stats<S: System>(integ: &dyn integrators::Integrator<S>) -> Vec<(String, f64)
 /// to the initial spins and the drivers' speeds): at least this many steps per turn.
 pub const STEPS_PER_TURN: f64 = 20.0;
 
+/// Whether a method chooses its own internal steps (`dopri5`, `dop853`, `state_time`): the
+/// run's step is then only its output interval, and no accuracy rule is judged by it.
+fn chooses_own_steps(method: &MethodSpec) -> bool {
+    matches!(
+        method,
+        MethodSpec::DormandPrince { .. }
+            | MethodSpec::DormandPrince853 { .. }
+            | MethodSpec::StateTime { .. }
+    )
+}
+
 /// The largest angular speed of a body in `st` (rad/s) and the body's index.
 fn fastest_spin(st: &State) -> (f64, usize) {
     st.twist
@@ -1116,12 +1134,8 @@ fn steps_per_turn_warning(
     h: f64,
     initial_spin: f64,
 ) -> Option<String> {
-    use MethodSpec as M;
     let (w, body) = &report.max_spin;
-    let own_steps = matches!(
-        method,
-        M::DormandPrince { .. } | M::DormandPrince853 { .. } | M::StateTime { .. }
-    );
+    let own_steps = chooses_own_steps(method);
     let per_turn = std::f64::consts::TAU / (w * h);
     if own_steps || per_turn >= STEPS_PER_TURN || *w <= 1.1 * initial_spin || body.is_empty() {
         return None;
@@ -1911,7 +1925,7 @@ pub(crate) fn write_run(
     }
     // the accuracy rule's measure of the run: steps per turn of the fastest body's peak spin
     // (not for the methods whose run step is only their output interval)
-    let own_steps = matches!(summary.method.as_str(), "dopri5" | "dop853" | "state_time");
+    let own_steps = MethodSpec::default_for(&summary.method).is_some_and(|m| chooses_own_steps(&m));
     if report.max_spin.0 > 0.0 && !own_steps {
         let per_turn = std::f64::consts::TAU / (report.step * report.max_spin.0);
         if let Some(v) = serde_json::Number::from_f64((per_turn * 10.0).round() / 10.0) {
@@ -2069,11 +2083,6 @@ mod tests {
         assert!(r.t_end > 0.0 && !r.finished);
     }
 
-    /// A violation small against the scene (1 m, the watchdog's floor) but large against the
-    /// joint's own lengths is reported (issue 21): a 2 cm rod (pivot lever arm 1 cm) under
-    /// penalty with ε = 1e-5 m/N sags by about ε·λ ≈ 1e-4 m, 1 % of its lever arm and far below
-    /// the 1 cm stop. Reference: the same rod with `staggered` (violation at round-off) gets no
-    /// warning. Before, nothing was said.
     /// The end-of-run spin check: a body spun up past 20 steps per turn is named with its
     /// rate and the step that resolves it; a spin no faster than the initial one (said before
     /// the run), a fine enough step, and the methods with their own internal steps are not.
@@ -2082,18 +2091,9 @@ mod tests {
         let report = |w: f64| RunReport {
             steps: 100,
             t_end: 1.0,
-            step: 0.01,
             finished: true,
-            failure: None,
-            interrupted: None,
-            retries: 0,
-            max_violation: (0.0, String::new()),
-            max_relative_violation: (0.0, String::new(), 0.0),
-            max_energy_drift: 0.0,
             max_spin: (w, "crank".into()),
-            energy: EnergyBalance::default(),
-            stats: Vec::new(),
-            warnings: Vec::new(),
+            ..RunReport::started(0.01)
         };
         let staggered = MethodSpec::Staggered(StaggeredOptions::default());
         // 100 rad/s at h = 0.01 s: 2π/1 = 6.3 steps per turn, from rest
@@ -2113,6 +2113,11 @@ mod tests {
         assert!(steps_per_turn_warning(&report(100.0), &dopri5, 0.01, 0.0).is_none());
     }
 
+    /// A violation small against the scene (1 m, the watchdog's floor) but large against the
+    /// joint's own lengths is reported (issue 21): a 2 cm rod (pivot lever arm 1 cm) under
+    /// penalty with ε = 1e-5 m/N sags by about ε·λ ≈ 1e-4 m, 1 % of its lever arm and far below
+    /// the 1 cm stop. Reference: the same rod with `staggered` (violation at round-off) gets no
+    /// warning. Before, nothing was said.
     #[test]
     fn a_violation_large_for_the_joint_is_reported() {
         let sys = RodPendulum::new(1.0, 0.02, 0.001, 1.0);

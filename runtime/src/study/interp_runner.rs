@@ -83,10 +83,6 @@ impl InterpRunner {
             resume: None,
         };
         guarded(|| run_loop::run(&self.sys, &cfg, obs)).unwrap_or_else(|msg| RunReport {
-            steps: 0,
-            t_end: 0.0,
-            step,
-            finished: false,
             failure: Some(Failure {
                 time: 0.0,
                 step: 0,
@@ -96,15 +92,7 @@ impl InterpRunner {
                 cause: format!("the runtime panicked: {msg}"),
                 hint: None,
             }),
-            interrupted: None,
-            retries: 0,
-            max_violation: (0.0, String::new()),
-            max_relative_violation: (0.0, String::new(), 0.0),
-            max_energy_drift: 0.0,
-            max_spin: (0.0, String::new()),
-            energy: Default::default(),
-            stats: Vec::new(),
-            warnings: Vec::new(),
+            ..RunReport::started(step)
         })
     }
 }
