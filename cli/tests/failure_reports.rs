@@ -372,8 +372,7 @@ fn error_lines(stderr: &str) -> Vec<&str> {
 fn check_refuses_what_run_refuses_before_its_first_step() {
     let dir = scratch("check-refuses");
     let cantilever = std::fs::read_to_string(root().join("models/cantilever.mbd")).expect("model");
-    let spatial =
-        std::fs::read_to_string(root().join("models/double_pendulum_3d.mbd")).expect("model");
+    let pendulum = std::fs::read_to_string(root().join("models/pendulum.mbd")).expect("model");
     let chain = std::fs::read_to_string(root().join("models/chain.mbd")).expect("model");
     let cases = [
         (
@@ -389,10 +388,15 @@ fn check_refuses_what_run_refuses_before_its_first_step() {
             "implicit_trapezoid does not simulate flexible beams",
         ),
         (
-            "not_planar",
-            spatial.replace("method staggered", "method state_time"),
+            "revolute_in_space",
+            pendulum
+                .replace(
+                    "orientation axis_angle((0, 1, 0), theta0)",
+                    "orientation axis_angle((0, 1, 0), theta0)\n    angular_velocity (1, 0, 0) rad/s",
+                )
+                .replace("step 1 ms }", "step 1 ms; method state_time }"),
             &[][..],
-            "state_time supports planar scenes only",
+            "state_time takes revolute joints in planar scenes only",
         ),
         (
             "dense",

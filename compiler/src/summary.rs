@@ -212,8 +212,14 @@ pub fn method_text(m: &MethodSpec) -> String {
                 format!("max_iterations {max_iterations}"),
             ]
         }
-        MethodSpec::StateTime { steps_per_element } => {
-            vec![format!("steps_per_element {steps_per_element}")]
+        MethodSpec::StateTime {
+            steps_per_element,
+            window,
+        } => {
+            vec![
+                format!("steps_per_element {steps_per_element}"),
+                format!("window {window}"),
+            ]
         }
     };
     if opts.is_empty() {

@@ -55,7 +55,7 @@ pub(crate) fn method_options(name: &str) -> &'static [&'static str] {
         "implicit_trapezoid" => &["tolerance", "max_iterations"],
         "natural_partitioning" => &["epsilon", "tolerance", "max_iterations"],
         "dopri5" | "dop853" => &["tolerance"],
-        "state_time" => &["steps_per_element"],
+        "state_time" => &["steps_per_element", "window"],
         _ => &[],
     }
 }
@@ -881,8 +881,14 @@ impl<'a> Lowerer<'a> {
             (MethodSpec::NaturalPartitioning { max_iterations, .. }, "max_iterations") => {
                 *max_iterations = Some(self.count(v, sc, "max_iterations")?)
             }
-            (MethodSpec::StateTime { steps_per_element }, "steps_per_element") => {
-                *steps_per_element = self.count(v, sc, "steps_per_element")?
+            (
+                MethodSpec::StateTime {
+                    steps_per_element, ..
+                },
+                "steps_per_element",
+            ) => *steps_per_element = self.count(v, sc, "steps_per_element")?,
+            (MethodSpec::StateTime { window, .. }, "window") => {
+                *window = self.count(v, sc, "window")?
             }
             _ => return Err(Reported),
         }

@@ -40,6 +40,9 @@ pub const MAX_STEPS: f64 = 1e12;
 pub const MAX_DENSE_UNKNOWNS: usize = 4096;
 /// Most Newton iterations per step `implicit_trapezoid` may be asked for.
 pub const MAX_NEWTON_ITERATIONS: u32 = 1000;
+/// Most time elements in one `state_time` window: a window's unknowns, buffers and LU
+/// grow with it (some 4000 unknowns per element for a 100-body spatial chain).
+pub const MAX_STATE_TIME_WINDOW: u32 = 65_536;
 
 /// Check a run's step and duration: the step positive and finite, the duration finite
 /// and ≥ 0, at most [`MAX_STEPS`] steps. Returns the number of steps, or why not.
@@ -63,7 +66,8 @@ pub fn check_run(step: f64, duration: f64) -> Result<u64, String> {
 
 /// Check a method's options: ε positive and finite where given, Baumgarte's α and β
 /// finite and ≥ 0, tolerances positive and finite, `max_iterations` in
-/// `1..=`[`MAX_NEWTON_ITERATIONS`], `steps_per_element` ≥ 1. Returns why not.
+/// `1..=`[`MAX_NEWTON_ITERATIONS`], `steps_per_element` ≥ 1, `window` in
+/// `1..=`[`MAX_STATE_TIME_WINDOW`]. Returns why not.
 pub fn check_method(method: &MethodSpec) -> Result<(), String> {
     let name = method.name();
     let positive = |what: &str, x: f64| {
@@ -117,9 +121,16 @@ pub fn check_method(method: &MethodSpec) -> Result<(), String> {
         MethodSpec::DormandPrince { tolerance } | MethodSpec::DormandPrince853 { tolerance } => {
             positive("tolerance", *tolerance)
         }
-        MethodSpec::StateTime { steps_per_element } => {
+        MethodSpec::StateTime {
+            steps_per_element,
+            window,
+        } => {
             if *steps_per_element == 0 {
                 Err(format!("{name}: steps_per_element must be at least 1"))
+            } else if !(1..=MAX_STATE_TIME_WINDOW).contains(window) {
+                Err(format!(
+                    "{name}: window must be between 1 and {MAX_STATE_TIME_WINDOW} time elements (it is {window})"
+                ))
             } else {
                 Ok(())
             }
@@ -180,6 +191,14 @@ mod tests {
                 epsilon: None,
                 tolerance: 1e-12,
                 max_iterations: Some(0),
+            },
+            MethodSpec::StateTime {
+                steps_per_element: 4,
+                window: 0,
+            },
+            MethodSpec::StateTime {
+                steps_per_element: 4,
+                window: MAX_STATE_TIME_WINDOW + 1,
             },
         ];
         for m in bad {

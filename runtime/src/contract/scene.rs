@@ -1214,7 +1214,18 @@ pub enum MethodSpec {
     StateTime {
         /// Time steps per time element.
         steps_per_element: u32,
+        /// Time elements per window: the memory of a window solve grows with it, the
+        /// run's length does not.
+        #[serde(default = "default_state_time_window")]
+        window: u32,
     },
+}
+
+/// Time elements per `state_time` window unless the model says otherwise.
+pub const DEFAULT_STATE_TIME_WINDOW: u32 = 64;
+
+fn default_state_time_window() -> u32 {
+    DEFAULT_STATE_TIME_WINDOW
 }
 
 impl MethodSpec {
@@ -1272,6 +1283,7 @@ impl MethodSpec {
             "dop853" => MethodSpec::DormandPrince853 { tolerance: 1e-9 },
             "state_time" => MethodSpec::StateTime {
                 steps_per_element: 4,
+                window: DEFAULT_STATE_TIME_WINDOW,
             },
             _ => return None,
         })

@@ -204,12 +204,19 @@ pub fn make<'a, S: System + 'a>(
         }
     }
     let meshes = sys.layout().meshes.clone();
-    if let (M::StateTime { steps_per_element }, true) = (method, meshes.is_empty()) {
+    if let (
+        M::StateTime {
+            steps_per_element,
+            window,
+        },
+        true,
+    ) = (method, meshes.is_empty())
+    {
         return Ok(Box::new(state_time::StateTime::new(
             sys,
             h,
             *steps_per_element,
-            state_time::DEFAULT_WINDOW,
+            *window as usize,
             start,
         )?));
     }

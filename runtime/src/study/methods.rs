@@ -91,8 +91,11 @@ pub fn describe_options(spec: &MethodSpec) -> String {
         MethodSpec::DormandPrince { tolerance } | MethodSpec::DormandPrince853 { tolerance } => {
             format!("tolerance {tolerance:e}")
         }
-        MethodSpec::StateTime { steps_per_element } => {
-            format!("{steps_per_element} steps per time element")
+        MethodSpec::StateTime {
+            steps_per_element,
+            window,
+        } => {
+            format!("{steps_per_element} steps per time element, windows of {window}")
         }
     }
 }

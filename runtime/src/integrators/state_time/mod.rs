@@ -6,10 +6,16 @@
 //! sparse, at most quadratic system, and Newton's method with the analytic Jacobian and a
 //! sparse LU solves it ([`window`]).
 //!
-//! **Scope of this version.** Planar rigid scenes with revolute and spherical joints and
-//! loads that do not depend on the state ([`planar`] says what is planar and refuses the
-//! rest, naming the body or joint). Quadratic Lagrange functions for the kinematic
-//! unknowns, linear ones for the joint forces (the paper's example, k = 2, p = 1).
+//! **Two readings of the scene.** A planar scene ([`planar`] says which) is solved with
+//! five fields per body ([`window`]: the angle about the plane's normal, two coordinates,
+//! a cosine and a sine); any other scene with spherical joints with fifteen ([`spatial`],
+//! [`spatial_window`]: three angle-like integrals of the body angular velocity, three
+//! coordinates, nine direction cosines). In the plane the two readings' equations coincide
+//! (tested). Both take rigid bodies, loads that do not depend on the state, and revolute
+//! (planar scenes only) and spherical joints ([`scope`] refuses the rest, naming the body or
+//! joint). Quadratic Lagrange functions for the kinematic unknowns, linear ones for the
+//! joint forces (the paper's example, k = 2, p = 1). Newton's method and the sparse LU are
+//! shared ([`newton`]).
 //!
 //! **Stepping.** The method serves the fixed output step `h` of the run: an element spans
 //! `steps_per_element` steps. When a step needs a time past the current window, the next
@@ -17,7 +23,8 @@
 //! end node, the momentum-consistent end velocities, notes F §1.10); its initial guess is a
 //! staggered explicit sweep over the window on the same node grid (4 steps per node
 //! spacing). States inside an element come from the interpolants (velocities from their
-//! derivatives; at element ends the momentum-consistent velocities); the multipliers are
+//! derivatives; at element ends the momentum-consistent velocities; in space the
+//! orientation is the rotation nearest to the interpolated cosines); the multipliers are
 //! the interpolated joint forces mapped onto the joints' point rows. A window may end
 //! after the run's end: the last window is solved whole.
 //!
@@ -25,20 +32,27 @@
 //! allocates its unknowns, buffers and the sparse LU's symbolic analysis, and faer
 //! allocates the matrix values and the numeric factors at every Newton iteration.
 
+pub mod newton;
 pub mod planar;
+pub mod scope;
 pub mod shape;
+pub mod spatial;
+pub mod spatial_window;
 pub mod window;
 
-use crate::contract::math::{axis_angle, qmul};
+use crate::contract::math::{axis_angle, qmul, quat_from_rotation};
 use crate::contract::scene::StaggeredOptions;
 use crate::contract::system::{ConstraintEval, Need, Pose, System, Wrench};
 use crate::integrators::{staggered, Integrator, StartError, State, StepError, StepInfo};
 use nalgebra::Vector3;
 use planar::Planar;
-use window::{BodyStart, Window};
+use scope::Joint;
+use spatial::Spatial;
+use spatial_window::SpatialWindow;
+use window::Window;
 
 /// Time elements per window unless told otherwise.
-pub const DEFAULT_WINDOW: usize = 64;
+pub const DEFAULT_WINDOW: usize = crate::contract::scene::DEFAULT_STATE_TIME_WINDOW as usize;
 /// Newton's tolerance on the update, relative to the largest unknown (max norm).
 pub const NEWTON_TOLERANCE: f64 = 1e-11;
 /// Newton's iteration limit per window.
@@ -46,9 +60,9 @@ pub const NEWTON_MAX_ITERATIONS: u32 = 30;
 /// Explicit steps per node spacing of the initial-guess sweep.
 const GUESS_SUBSTEPS: usize = 4;
 
-/// The state-time integrator of a planar scene.
+/// The state-time integrator of a rigid scene, planar or spatial.
 pub struct StateTime {
-    model: Planar,
+    reading: Reading,
     h: f64,
     spe: usize,
     window_elements: usize,
@@ -57,10 +71,7 @@ pub struct StateTime {
     t_start: f64,
     /// Steps into the current window.
     k: usize,
-    win: Option<Window>,
-    /// The window's start: body orientations and out-of-plane coordinates.
-    base: Vec<Pose>,
-    offplane: Vec<f64>,
+    win: Option<Win>,
     cur: State,
     ce: ConstraintEval,
     stats: Stats,
@@ -71,8 +82,74 @@ pub struct StateTime {
     resolve: bool,
 }
 
-/// Above this drift of the direction cosines from orthonormal (`|c² + s² − 1|` at any
-/// node), a `state_time` run that finishes warns that its rotations are not resolved.
+/// How the method reads the scene.
+enum Reading {
+    /// A planar scene ([`planar`]): five fields per body. `base`: the bodies' poses at the
+    /// window's start (the cosines are of the rotation since then); `offplane`: their
+    /// constant coordinates along the normal.
+    Planar {
+        model: Planar,
+        base: Vec<Pose>,
+        offplane: Vec<f64>,
+    },
+    /// A spatial scene ([`spatial`]): fifteen fields per body, absolute direction cosines.
+    Spatial { model: Spatial },
+}
+
+/// The current window of either reading.
+enum Win {
+    Planar(Window),
+    Spatial(SpatialWindow),
+}
+
+impl Win {
+    fn elements(&self) -> usize {
+        match self {
+            Win::Planar(w) => w.elements,
+            Win::Spatial(w) => w.elements,
+        }
+    }
+    fn t0(&self) -> f64 {
+        match self {
+            Win::Planar(w) => w.t0,
+            Win::Spatial(w) => w.t0,
+        }
+    }
+    fn unknowns(&self) -> usize {
+        match self {
+            Win::Planar(w) => w.unknowns(),
+            Win::Spatial(w) => w.u.len(),
+        }
+    }
+    fn newton(&mut self) -> Result<newton::NewtonStats, newton::Failure> {
+        match self {
+            Win::Planar(w) => w.newton(NEWTON_TOLERANCE, NEWTON_MAX_ITERATIONS),
+            Win::Spatial(w) => w.newton(NEWTON_TOLERANCE, NEWTON_MAX_ITERATIONS),
+        }
+    }
+    /// The largest entry of `CᵀC − I` at the window's nodes (`|c² + s² − 1|` in the plane).
+    fn orthogonality_drift(&self) -> f64 {
+        match self {
+            Win::Planar(w) => {
+                let mut worst = 0.0f64;
+                for e in 0..w.elements {
+                    for tau in [0.5, 1.0] {
+                        for b in 0..w.bodies() {
+                            let (v, _) = w.body_at(e, tau, b);
+                            worst = worst.max((v[3] * v[3] + v[4] * v[4] - 1.0).abs());
+                        }
+                    }
+                }
+                worst
+            }
+            Win::Spatial(w) => w.orthogonality_drift(),
+        }
+    }
+}
+
+/// Above this drift of the direction cosines from orthonormal (the largest entry of
+/// `CᵀC − I` at any node, `|c² + s² − 1|` in the plane), a `state_time` run that finishes
+/// warns that its rotations are not resolved.
 pub const COSINE_DRIFT_WARNING: f64 = 5e-2;
 
 #[derive(Clone, Copy, Debug, Default)]
@@ -87,11 +164,11 @@ struct Stats {
 
 impl StateTime {
     /// The method with output step `h`, `steps_per_element` steps per time element and
-    /// windows of `window_elements` elements, from `start`.
+    /// windows of `window_elements` elements, from `start`: the planar reading when the
+    /// scene is planar ([`planar::read`]), the spatial one otherwise ([`spatial::read`]).
     ///
     /// # Errors
-    /// A scene the method does not support (see [`planar::read`]), a zero element or
-    /// window size.
+    /// A scene the method does not support, a zero element or window size.
     pub fn new<S: System>(
         sys: &S,
         h: f64,
@@ -99,21 +176,58 @@ impl StateTime {
         window_elements: usize,
         start: &State,
     ) -> Result<StateTime, StartError> {
+        let reading = match planar::read(sys, start) {
+            Ok(model) => Reading::Planar {
+                base: start.pose.clone(),
+                offplane: start.pose.iter().map(|p| p.r.dot(&model.plane.n)).collect(),
+                model,
+            },
+            Err(why) => Reading::Spatial {
+                model: spatial::read(sys, Err(&why)).map_err(StartError::Invalid)?,
+            },
+        };
+        Self::with_reading(sys, h, steps_per_element, window_elements, start, reading)
+    }
+
+    /// As [`StateTime::new`] but with the spatial reading even for a planar scene (the two
+    /// readings' discrete equations coincide in the plane: a check of both).
+    ///
+    /// # Errors
+    /// As [`StateTime::new`].
+    pub fn spatial<S: System>(
+        sys: &S,
+        h: f64,
+        steps_per_element: u32,
+        window_elements: usize,
+        start: &State,
+    ) -> Result<StateTime, StartError> {
+        let planar = planar::read(sys, start).map(|_| ());
+        let model = spatial::read(sys, planar.as_ref().map(|_| ()).map_err(|s| s.as_str()))
+            .map_err(StartError::Invalid)?;
+        let reading = Reading::Spatial { model };
+        Self::with_reading(sys, h, steps_per_element, window_elements, start, reading)
+    }
+
+    fn with_reading<S: System>(
+        sys: &S,
+        h: f64,
+        steps_per_element: u32,
+        window_elements: usize,
+        start: &State,
+        reading: Reading,
+    ) -> Result<StateTime, StartError> {
         if steps_per_element == 0 || window_elements == 0 {
             return Err(StartError::Invalid(
                 "state_time: steps_per_element and the window's element count must be at least 1"
                     .into(),
             ));
         }
-        let model = planar::read(sys, start).map_err(StartError::Invalid)?;
         let rows = sys.layout().rows;
         let mut cur = start.clone();
         cur.lambda.resize(rows, 0.0);
         cur.active = vec![true; rows];
         Ok(StateTime {
-            base: start.pose.clone(),
-            offplane: start.pose.iter().map(|p| p.r.dot(&model.plane.n)).collect(),
-            model,
+            reading,
             h,
             spe: steps_per_element as usize,
             window_elements,
@@ -129,26 +243,39 @@ impl StateTime {
         })
     }
 
-    /// The current window (`None` before the first step).
-    pub fn window(&self) -> Option<&Window> {
-        self.win.as_ref()
+    /// Whether the scene is read as planar (five fields per body) rather than spatial.
+    pub fn is_planar(&self) -> bool {
+        matches!(self.reading, Reading::Planar { .. })
     }
 
-    /// Solve the next window from the current state. Returns Newton's iterations.
-    fn next_window<S: System>(&mut self, sys: &S) -> Result<u32, StepError> {
-        let plane = self.model.plane;
-        let nb = self.model.bodies.len();
-        self.win_start.clone_from(&self.cur);
+    fn joints(&self) -> &[Joint] {
+        match &self.reading {
+            Reading::Planar { model, .. } => &model.joints,
+            Reading::Spatial { model, .. } => &model.joints,
+        }
+    }
+
+    /// The planar window of `W` elements from the current state (the loads sampled once).
+    fn planar_window<S: System>(&mut self, sys: &S) -> Result<Window, StepError> {
+        let Reading::Planar {
+            model,
+            base,
+            offplane,
+        } = &mut self.reading
+        else {
+            unreachable!("a planar window of a spatial reading")
+        };
+        let plane = model.plane;
+        let nb = model.bodies.len();
         let s = &self.cur;
-        let start: Vec<BodyStart> = (0..nb)
-            .map(|b| BodyStart {
+        let start: Vec<window::BodyStart> = (0..nb)
+            .map(|b| window::BodyStart {
                 x: plane.xy(&s.pose[b].r),
                 v: plane.xy(&s.twist[b].v),
                 w: (s.pose[b].c * s.twist[b].w).dot(&plane.n),
             })
             .collect();
-        let offsets: Vec<[[f64; 2]; 2]> = self
-            .model
+        let offsets: Vec<[[f64; 2]; 2]> = model
             .joints
             .iter()
             .map(|j| {
@@ -159,16 +286,16 @@ impl StateTime {
                 [off(j.a, &j.pa), off(j.b, &j.pb)]
             })
             .collect();
-        self.base.clone_from(&s.pose);
-        for (d, p) in self.offplane.iter_mut().zip(&s.pose) {
+        base.clone_from(&s.pose);
+        for (d, p) in offplane.iter_mut().zip(&s.pose) {
             *d = p.r.dot(&plane.n);
         }
-        let w_el = self.window_elements;
         let he = self.h * self.spe as f64;
         let mut wrench = vec![Wrench::default(); nb];
         let mut off_plane: Option<(usize, f64)> = None;
         let (pose, twist) = (&s.pose, &s.twist);
-        let mut win = Window::new(&self.model, w_el, he, s.t, start, &offsets, |t, out| {
+        let w_el = self.window_elements;
+        let win = Window::new(model, w_el, he, s.t, start, &offsets, |t, out| {
             sys.applied(t, pose, twist, &mut wrench);
             for (b, (o, w)) in out.iter_mut().zip(&wrench).enumerate() {
                 let tw = pose[b].c * w.t;
@@ -184,43 +311,67 @@ impl StateTime {
             return Err(StepError::Linalg {
                 what: "state_time",
                 message: format!(
-                    "body '{}': an applied load leaves the plane of motion at t = {t:.6} s (a force along the normal or a torque about an in-plane axis); state_time supports planar scenes only in this version",
-                    self.model.bodies[b].name
+                    "body '{}': an applied load leaves the plane of motion at t = {t:.6} s (a force along the normal or a torque about an in-plane axis); state_time takes such loads in its spatial reading, not in a planar scene (give the motion an out-of-plane component, or keep the loads in the plane)",
+                    model.bodies[b].name
                 ),
             });
         }
-        self.guess(sys, &mut win)?;
-        let t0 = win.t0;
-        let t1 = t0 + w_el as f64 * he;
-        let stats = win
-            .newton(NEWTON_TOLERANCE, NEWTON_MAX_ITERATIONS)
-            .map_err(|f| {
-                let singular = f.linear.is_some();
-                StepError::Window {
-                    message: match &f.linear {
-                        Some(why) => format!(
-                            "state_time: the window [{t0:.6}, {t1:.6}] s cannot be solved: {why}"
-                        ),
-                        None => format!(
-                            "state_time: Newton's method on the window [{t0:.6}, {t1:.6}] s did not converge in {} iterations: largest residual {:.3e} in {}",
-                            f.iterations, f.residual, f.place
-                        ),
-                    },
-                    place: f.place,
-                    residual: f.residual,
-                    singular,
-                }
-            })?;
-        // orthogonality drift at the nodes
-        for e in 0..w_el {
-            for tau in [0.5, 1.0] {
-                for b in 0..nb {
-                    let (v, _) = win.body_at(e, tau, b);
-                    let d = (v[3] * v[3] + v[4] * v[4] - 1.0).abs();
-                    self.stats.cosine_drift = self.stats.cosine_drift.max(d);
-                }
+        Ok(win)
+    }
+
+    /// The spatial window of `W` elements from the current state.
+    fn spatial_window<S: System>(&self, sys: &S, model: &Spatial) -> SpatialWindow {
+        let s = &self.cur;
+        let start = (0..model.bodies.len())
+            .map(|b| spatial_window::BodyStart {
+                x: s.pose[b].r,
+                v: s.twist[b].v,
+                c: s.pose[b].c,
+                w: s.twist[b].w,
+            })
+            .collect();
+        let he = self.h * self.spe as f64;
+        let mut wrench = vec![Wrench::default(); model.bodies.len()];
+        let (pose, twist) = (&s.pose, &s.twist);
+        SpatialWindow::new(model, self.window_elements, he, s.t, start, |t, out| {
+            sys.applied(t, pose, twist, &mut wrench);
+            for ((o, w), p) in out.iter_mut().zip(&wrench).zip(pose) {
+                *o = spatial_window::Load {
+                    f: w.f,
+                    t: p.c * w.t,
+                };
             }
-        }
+        })
+    }
+
+    /// Solve the next window from the current state. Returns Newton's iterations.
+    fn next_window<S: System>(&mut self, sys: &S) -> Result<u32, StepError> {
+        self.win_start.clone_from(&self.cur);
+        let mut win = match &self.reading {
+            Reading::Planar { .. } => Win::Planar(self.planar_window(sys)?),
+            Reading::Spatial { model } => Win::Spatial(self.spatial_window(sys, model)),
+        };
+        self.guess(sys, &mut win)?;
+        let t0 = win.t0();
+        let t1 = t0 + win.elements() as f64 * self.h * self.spe as f64;
+        let stats = win.newton().map_err(|f| {
+            let singular = f.linear.is_some();
+            StepError::Window {
+                message: match &f.linear {
+                    Some(why) => format!(
+                        "state_time: the window [{t0:.6}, {t1:.6}] s cannot be solved: {why}"
+                    ),
+                    None => format!(
+                        "state_time: Newton's method on the window [{t0:.6}, {t1:.6}] s did not converge in {} iterations: largest residual {:.3e} in {}",
+                        f.iterations, f.residual, f.place
+                    ),
+                },
+                place: f.place,
+                residual: f.residual,
+                singular,
+            }
+        })?;
+        self.stats.cosine_drift = self.stats.cosine_drift.max(win.orthogonality_drift());
         self.stats.windows += 1;
         self.stats.iterations += stats.iterations;
         self.stats.max_iterations = self.stats.max_iterations.max(stats.iterations);
@@ -232,11 +383,10 @@ impl StateTime {
 
     /// The initial guess of `win`: a staggered sweep from the current state on the window's
     /// node grid.
-    fn guess<S: System>(&self, sys: &S, win: &mut Window) -> Result<(), StepError> {
-        let plane = self.model.plane;
-        let nb = self.model.bodies.len();
-        let nodes = 2 * win.elements;
-        let hs = win.h / (2 * GUESS_SUBSTEPS) as f64;
+    fn guess<S: System>(&self, sys: &S, win: &mut Win) -> Result<(), StepError> {
+        let nb = sys.layout().bodies();
+        let nodes = 2 * win.elements();
+        let hs = self.h * self.spe as f64 / (2 * GUESS_SUBSTEPS) as f64;
         let mut sweep =
             staggered::TwoStage::staggered(sys, hs, &StaggeredOptions::default(), &self.cur)
                 .map_err(|e| StepError::Linalg {
@@ -245,28 +395,54 @@ impl StateTime {
                 })?;
         let mut st = self.cur.clone();
         let mut ce = ConstraintEval::new(sys.layout().rows);
-        let mut theta = vec![0.0; nb];
-        let forces = |st: &State, ce: &mut ConstraintEval, win: &mut Window, n: usize| {
+        // the angle-like unknowns: the planar rotation angle since the window's start
+        // (unwrapped), or the integral of the body angular velocity (trapezoid rule)
+        let mut angle = vec![Vector3::zeros(); nb];
+        let mut w_prev: Vec<Vector3<f64>> = st.twist.iter().map(|t| t.w).collect();
+        let forces = |st: &State, ce: &mut ConstraintEval, win: &mut Win, n: usize| {
             sys.constraints(st.t, &st.pose, &st.twist, Need::JAC, ce);
-            for (k, j) in self.model.joints.iter().enumerate() {
+            for (k, j) in self.joints().iter().enumerate() {
                 let f = joint_force(j, ce, &st.lambda);
-                win.set_force(n, k, plane.xy(&f));
+                match (&mut *win, &self.reading) {
+                    (Win::Planar(w), Reading::Planar { model, .. }) => {
+                        w.set_force(n, k, model.plane.xy(&f));
+                    }
+                    (Win::Spatial(w), _) => w.set_force(n, k, &f),
+                    _ => unreachable!("a window of the other reading"),
+                }
             }
         };
         forces(&st, &mut ce, win, 0);
         for j in 1..=nodes {
             for _ in 0..GUESS_SUBSTEPS {
                 Integrator::<S>::step(&mut sweep, sys)?;
+                if let Win::Spatial(_) = win {
+                    Integrator::<S>::state(&sweep, sys, &mut st);
+                    for (b, w) in w_prev.iter_mut().enumerate() {
+                        angle[b] += 0.5 * hs * (*w + st.twist[b].w);
+                        *w = st.twist[b].w;
+                    }
+                }
             }
             Integrator::<S>::state(&sweep, sys, &mut st);
             for b in 0..nb {
-                let r = st.pose[b].c * self.base[b].c.transpose();
-                let a = (plane.e2.dot(&(r * plane.e1))).atan2(plane.e1.dot(&(r * plane.e1)));
-                let d = a - theta[b];
-                let d = d - std::f64::consts::TAU * (d / std::f64::consts::TAU).round();
-                theta[b] += d;
-                let x = plane.xy(&st.pose[b].r);
-                win.set_kin(j, b, [theta[b], x[0], x[1], theta[b].cos(), theta[b].sin()]);
+                match (&mut *win, &self.reading) {
+                    (Win::Planar(w), Reading::Planar { model, base, .. }) => {
+                        let plane = model.plane;
+                        let r = st.pose[b].c * base[b].c.transpose();
+                        let a =
+                            (plane.e2.dot(&(r * plane.e1))).atan2(plane.e1.dot(&(r * plane.e1)));
+                        let d = a - angle[b].x;
+                        let d = d - std::f64::consts::TAU * (d / std::f64::consts::TAU).round();
+                        angle[b].x += d;
+                        let (th, x) = (angle[b].x, plane.xy(&st.pose[b].r));
+                        w.set_kin(j, b, [th, x[0], x[1], th.cos(), th.sin()]);
+                    }
+                    (Win::Spatial(w), _) => {
+                        w.set_kin(j, b, &angle[b], &st.pose[b].r, &st.pose[b].c);
+                    }
+                    _ => unreachable!("a window of the other reading"),
+                }
             }
             if j % 2 == 0 {
                 forces(&st, &mut ce, win, j / 2);
@@ -278,28 +454,65 @@ impl StateTime {
     /// Fill `self.cur` with the state `k` steps into the current window.
     fn fill_state<S: System>(&mut self, sys: &S) {
         let Some(win) = &self.win else { return };
-        let plane = self.model.plane;
         let (e, i) = (self.k / self.spe, self.k % self.spe);
-        let (e, tau) = if e >= win.elements {
-            (win.elements - 1, 1.0)
+        let (e, tau) = if e >= win.elements() {
+            (win.elements() - 1, 1.0)
         } else {
             (e, i as f64 / self.spe as f64)
         };
-        for b in 0..self.model.bodies.len() {
-            let (v, dv) = win.body_at(e, tau, b);
-            let vel = if tau == 1.0 {
-                win.end_velocity(e, b)
-            } else if i == 0 && e > 0 {
-                win.end_velocity(e - 1, b)
-            } else {
-                [dv[0], dv[1], dv[2]]
-            };
-            let q = qmul(&axis_angle(&plane.n, v[0]), &self.base[b].q);
-            let r = plane.e1 * v[1] + plane.e2 * v[2] + plane.n * self.offplane[b];
-            let pose = Pose::new(r, q);
-            self.cur.twist[b].v = plane.e1 * vel[1] + plane.e2 * vel[2];
-            self.cur.twist[b].w = pose.c.transpose() * (plane.n * vel[0]);
-            self.cur.pose[b] = pose;
+        // velocities: at element ends the momentum-consistent ones, inside from the
+        // interpolants' derivatives
+        let end = if tau == 1.0 {
+            Some(e)
+        } else if i == 0 && e > 0 {
+            Some(e - 1)
+        } else {
+            None
+        };
+        match (win, &self.reading) {
+            (
+                Win::Planar(win),
+                Reading::Planar {
+                    model,
+                    base,
+                    offplane,
+                },
+            ) => {
+                let plane = model.plane;
+                for b in 0..model.bodies.len() {
+                    let (v, dv) = win.body_at(e, tau, b);
+                    let vel = match end {
+                        Some(e) => win.end_velocity(e, b),
+                        None => [dv[0], dv[1], dv[2]],
+                    };
+                    let q = qmul(&axis_angle(&plane.n, v[0]), &base[b].q);
+                    let r = plane.e1 * v[1] + plane.e2 * v[2] + plane.n * offplane[b];
+                    let pose = Pose::new(r, q);
+                    self.cur.twist[b].v = plane.e1 * vel[1] + plane.e2 * vel[2];
+                    self.cur.twist[b].w = pose.c.transpose() * (plane.n * vel[0]);
+                    self.cur.pose[b] = pose;
+                }
+            }
+            (Win::Spatial(win), Reading::Spatial { model }) => {
+                for b in 0..model.bodies.len() {
+                    let (x, c, xd, w) = win.body_at(e, tau, b);
+                    let (w, xd) = match end {
+                        Some(e) => win.end_velocity(e, b),
+                        None => (w, xd),
+                    };
+                    // the rotation nearest to the (not quite orthonormal) cosines, on the
+                    // side of the previous quaternion
+                    let mut q = quat_from_rotation(&nearest_rotation(&c));
+                    let prev = self.cur.pose[b].q;
+                    if q.coords.dot(&prev.coords) < 0.0 {
+                        q = -q;
+                    }
+                    self.cur.pose[b] = Pose::new(x, q);
+                    self.cur.twist[b].v = xd;
+                    self.cur.twist[b].w = w;
+                }
+            }
+            _ => unreachable!("a window of the other reading"),
         }
         self.cur.t = self.t_start + self.steps as f64 * self.h;
         let s = &self.cur;
@@ -316,16 +529,46 @@ impl StateTime {
         );
         let worst = self.ce.phi.iter().fold(0.0f64, |a, x| a.max(x.abs()));
         self.stats.position_residual = self.stats.position_residual.max(worst);
-        for (k, j) in self.model.joints.iter().enumerate() {
-            let f2 = win.force_at(e, tau, k);
-            let f = plane.e1 * f2[0] + plane.e2 * f2[1];
+        let Some(win) = &self.win else { return };
+        let joints = match &self.reading {
+            Reading::Planar { model, .. } => &model.joints,
+            Reading::Spatial { model, .. } => &model.joints,
+        };
+        for (k, j) in joints.iter().enumerate() {
+            let f = match (win, &self.reading) {
+                (Win::Planar(w), Reading::Planar { model, .. }) => {
+                    let f2 = w.force_at(e, tau, k);
+                    model.plane.e1 * f2[0] + model.plane.e2 * f2[1]
+                }
+                (Win::Spatial(w), _) => w.force_at(e, tau, k),
+                _ => unreachable!("a window of the other reading"),
+            };
             set_multipliers(j, &self.ce, &f, &mut self.cur.lambda);
         }
     }
 }
 
+/// The rotation matrix nearest to `c` (Frobenius norm): the orthogonal factor of its polar
+/// decomposition, by Newton's iteration `R ← (R + R⁻ᵀ)/2` (quadratic convergence; `c` is
+/// within the cosines' drift of a rotation). `c` itself if it is singular.
+fn nearest_rotation(c: &nalgebra::Matrix3<f64>) -> nalgebra::Matrix3<f64> {
+    let mut r = *c;
+    for _ in 0..8 {
+        let Some(inv) = r.try_inverse() else {
+            return *c;
+        };
+        let next = 0.5 * (r + inv.transpose());
+        let change = (next - r).amax();
+        r = next;
+        if change < 1e-15 {
+            break;
+        }
+    }
+    r
+}
+
 /// Joint `j`'s force on side b (world) from its rows' multipliers (`M u̇ + Bᵀλ = F`).
-fn joint_force(j: &planar::Joint, ce: &ConstraintEval, lambda: &[f64]) -> Vector3<f64> {
+fn joint_force(j: &scope::Joint, ce: &ConstraintEval, lambda: &[f64]) -> Vector3<f64> {
     let mut f = Vector3::zeros();
     for r in j.first_row..j.first_row + j.rows {
         let (blk, sign) = if j.b.is_some() {
@@ -340,7 +583,7 @@ fn joint_force(j: &planar::Joint, ce: &ConstraintEval, lambda: &[f64]) -> Vector
 
 /// The multipliers of joint `j`'s rows that give the force `f` on side b: the
 /// least-norm solution over the rows' translational Jacobian blocks.
-fn set_multipliers(j: &planar::Joint, ce: &ConstraintEval, f: &Vector3<f64>, lambda: &mut [f64]) {
+fn set_multipliers(j: &scope::Joint, ce: &ConstraintEval, f: &Vector3<f64>, lambda: &mut [f64]) {
     let rows = j.first_row..j.first_row + j.rows;
     let (target, side_b) = if j.b.is_some() {
         (-f, true)
@@ -450,7 +693,9 @@ impl<S: System> Integrator<S> for StateTime {
         // loading: the window is solved again at the next step (saving: unchanged)
         self.resolve = has_window && self.win.is_none();
         if self.resolve {
-            self.base.clone_from(&self.win_start.pose);
+            if let Reading::Planar { base, .. } = &mut self.reading {
+                base.clone_from(&self.win_start.pose);
+            }
         }
         true
     }
@@ -470,5 +715,7 @@ impl<S: System> Integrator<S> for StateTime {
     }
 }
 
+#[cfg(test)]
+mod spatial_tests;
 #[cfg(test)]
 mod tests;

@@ -9,6 +9,7 @@
 //! loads (independent of the state) are forces in the plane and torques about `n`. Every
 //! other scene is refused with the body or joint that breaks the rule and why.
 
+use super::scope::{self, Joint};
 use crate::contract::system::{JointKernel, System};
 use crate::integrators::State;
 use nalgebra::Vector3;
@@ -55,25 +56,6 @@ pub struct Body {
     pub jn: f64,
 }
 
-/// One joint: the two sides and their attachment points in body components.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Joint {
-    /// Name (for reports).
-    pub name: String,
-    /// Body of side a (`None`: ground).
-    pub a: Option<usize>,
-    /// Body of side b (`None`: ground).
-    pub b: Option<usize>,
-    /// Attachment on side a: body-a components from its mass centre (world for ground).
-    pub pa: Vector3<f64>,
-    /// Attachment on side b.
-    pub pb: Vector3<f64>,
-    /// First constraint row of the joint in the system's numbering.
-    pub first_row: usize,
-    /// Number of rows.
-    pub rows: usize,
-}
-
 /// A planar scene: the plane, the bodies and the joints.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Planar {
@@ -92,52 +74,11 @@ const TOL: f64 = 1e-8;
 pub fn read<S: System + ?Sized>(sys: &S, start: &State) -> Result<Planar, String> {
     let l = sys.layout();
     let nb = l.bodies();
-    if !l.beams.is_empty() {
-        return Err(format!(
-            "beam '{}': state_time does not simulate flexible beams yet",
-            l.beams.beams[0].name
-        ));
-    }
-    if nb == 0 {
-        return Err("state_time needs at least one rigid body".into());
-    }
-    if sys.has_state_forces() {
-        return Err("state_time supports only loads that do not depend on the state (gravity, forces and torques given as functions of time) in this version; the scene has springs, dampers, contact or forces in body axes".into());
-    }
     let mut joints = Vec::with_capacity(l.joints.len());
     let mut normal: Option<Vector3<f64>> = None;
-    for (k, j) in l.joints.iter().enumerate() {
-        if j.starts_inactive {
-            return Err(format!(
-                "joint '{}' ({}): state_time does not handle locks that engage during a run",
-                j.name, j.kind
-            ));
-        }
-        if j.nonholonomic > 0 {
-            return Err(format!(
-                "joint '{}' ({}): state_time enforces velocity-level point constraints only; nonholonomic rows are not supported",
-                j.name, j.kind
-            ));
-        }
-        let Some((kernel, geom)) = sys.tree_joint(k) else {
-            return Err(format!(
-                "joint '{}' ({}): state_time supports revolute and spherical joints only (no drivers, distances, curves or rolling yet)",
-                j.name, j.kind
-            ));
-        };
-        if !matches!(kernel, JointKernel::Revolute | JointKernel::Spherical) {
-            return Err(format!(
-                "joint '{}' ({}): state_time supports revolute and spherical joints only",
-                j.name, j.kind
-            ));
-        }
-        if j.a.is_none() && j.b.is_none() {
-            return Err(format!("joint '{}' joins ground to ground", j.name));
-        }
-        let pa = Vector3::from(geom.pa);
-        let pb = Vector3::from(geom.pb);
+    for (joint, kernel, geom) in scope::point_joints(sys)? {
         if kernel == JointKernel::Revolute {
-            let axis = match j.a {
+            let axis = match joint.a {
                 Some(a) => start.pose[a].c * Vector3::from(geom.fa[2]),
                 None => Vector3::from(geom.fa[2]),
             };
@@ -146,22 +87,14 @@ pub fn read<S: System + ?Sized>(sys: &S, start: &State) -> Result<Planar, String
                 Some(n) => {
                     if n.normalize().cross(&axis.normalize()).norm() > TOL {
                         return Err(format!(
-                            "joint '{}' (revolute): its axis is not parallel to the other revolute axes; state_time supports planar scenes only in this version",
-                            j.name
+                            "joint '{}' (revolute): its axis is not parallel to the other revolute axes; state_time supports revolute joints in planar scenes only",
+                            joint.name
                         ));
                     }
                 }
             }
         }
-        joints.push(Joint {
-            name: j.name.clone(),
-            a: j.a,
-            b: j.b,
-            pa,
-            pb,
-            first_row: j.first_row,
-            rows: j.rows,
-        });
+        joints.push(joint);
     }
     if normal.is_none() {
         normal = (0..nb)

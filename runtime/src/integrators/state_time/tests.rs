@@ -2,7 +2,8 @@
 //! equation count of notes F §1.9, the analytic Jacobian against finite differences, and
 //! polynomial exactness (notes F §5, "suggested validation checks").
 
-use super::planar::{Body, Joint, Planar, Plane};
+use super::planar::{Body, Planar, Plane};
+use super::scope::Joint;
 use super::window::{BodyStart, Window};
 use nalgebra::Vector3;
 

@@ -22,18 +22,12 @@
 //! **Order.** Unknowns and equations are numbered time-major (node by node), so the
 //! Jacobian is banded: no equation reaches an unknown more than one element away.
 //!
-//! **Assembly.** Each element's residual and Jacobian entries are computed independently
-//! (in parallel with rayon) into the element's own buffer, then added in element order,
-//! so that the result does not depend on the number of threads. The LU factorization runs
-//! sequentially for the same reason.
+//! **Assembly and solve** are those of [`super::newton`]: per element in parallel, added in
+//! element order, a sequential sparse LU.
 
+use super::newton::{self, Discretization, ElementBuffer, Failure, NewtonStats, Places};
 use super::planar::Planar;
 use super::shape::{dpsi, phi, psi, GAUSS6};
-use faer::dyn_stack::{MemBuffer, MemStack};
-use faer::sparse::linalg::lu::{factorize_symbolic_lu, LuSymbolicParams, NumericLu, SymbolicLu};
-use faer::sparse::linalg::SupernodalThreshold;
-use faer::sparse::{Argsort, Pair, SparseColMat, SymbolicSparseColMat};
-use faer::{Conj, MatMut, Par};
 
 /// Fields per body: `q, x, y, c, s`.
 pub const FIELDS: usize = 5;
@@ -44,10 +38,6 @@ const C: usize = 3;
 const S: usize = 4;
 /// Gauss points per element.
 const NG: usize = GAUSS6.len();
-
-/// An update this small relative to the unknowns that no longer shrinks ends Newton's
-/// iteration as converged (the round-off floor; the discretization error is far larger).
-const STALL: f64 = 1e-8;
 
 /// Names of a body's equations, by field index (for failure reports).
 const BODY_EQUATIONS: [&str; FIELDS] = [
@@ -77,28 +67,6 @@ struct Side {
     sigma: f64,
     /// The attachment's in-plane offset from the mass centre at the window's start.
     rho: [f64; 2],
-}
-
-/// Newton's statistics of one window.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct NewtonStats {
-    /// Iterations (linear solves).
-    pub iterations: u32,
-    /// Final residual, max norm.
-    pub residual: f64,
-}
-
-/// Why a window's Newton iteration failed.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Failure {
-    /// Iterations made.
-    pub iterations: u32,
-    /// Largest residual at the end.
-    pub residual: f64,
-    /// Where it is: the body or joint, its equation and the time of its test function.
-    pub place: String,
-    /// The sparse LU's message, when the factorization itself failed.
-    pub linear: Option<String>,
 }
 
 /// The problem of one window: constants, numbering and the current iterate.
@@ -137,13 +105,6 @@ pub struct Window {
     tw: [f64; NG],
     bufs: Vec<ElementBuffer>,
     names: (Vec<String>, Vec<String>),
-}
-
-/// One element's contributions: residual `(row, value)` and Jacobian `(row, col, value)`.
-#[derive(Clone, Debug, Default)]
-struct ElementBuffer {
-    res: Vec<(usize, f64)>,
-    jac: Vec<(usize, usize, f64)>,
 }
 
 impl Window {
@@ -254,6 +215,11 @@ impl Window {
                 model.joints.iter().map(|j| j.name.clone()).collect(),
             ),
         }
+    }
+
+    /// Number of bodies.
+    pub fn bodies(&self) -> usize {
+        self.nb
     }
 
     /// Number of unknowns (= equations).
@@ -525,213 +491,46 @@ impl Window {
         }
     }
 
-    /// Assemble the residual into `r` and the Jacobian's values into `vals` (in the fixed
-    /// entry order; `pairs`, if given, receives the entries' positions).
-    fn assemble(
-        &mut self,
-        r: &mut [f64],
-        vals: &mut Vec<f64>,
-        pairs: Option<&mut Vec<Pair<usize, usize>>>,
-    ) {
-        use rayon::prelude::*;
-        let mut bufs = std::mem::take(&mut self.bufs);
-        {
-            let this = &*self;
-            let u = &this.u;
-            bufs.par_iter_mut()
-                .enumerate()
-                .with_min_len(4)
-                .for_each(|(e, buf)| this.element(e, u, buf));
-        }
-        r.fill(0.0);
-        vals.clear();
-        for buf in &bufs {
-            for &(i, v) in &buf.res {
-                r[i] += v;
-            }
-            vals.extend(buf.jac.iter().map(|t| t.2));
-        }
-        if let Some(p) = pairs {
-            p.clear();
-            for buf in &bufs {
-                p.extend(buf.jac.iter().map(|t| Pair::new(t.0, t.1)));
-            }
-        }
-        self.bufs = bufs;
-    }
-
     /// The residual at the current unknowns (for tests and reports).
-    pub fn residual(&mut self) -> Vec<f64> {
-        let mut r = vec![0.0; self.unknowns()];
-        let mut vals = Vec::new();
-        self.assemble(&mut r, &mut vals, None);
-        r
+    pub fn residual(&self) -> Vec<f64> {
+        newton::residual(self, &self.u)
     }
 
     /// The Jacobian at the current unknowns as `(row, col, value)` entries (duplicates to
     /// be summed; for tests).
-    pub fn jacobian_entries(&mut self) -> Vec<(usize, usize, f64)> {
-        let mut r = vec![0.0; self.unknowns()];
-        let mut vals = Vec::new();
-        let mut pairs = Vec::new();
-        self.assemble(&mut r, &mut vals, Some(&mut pairs));
-        pairs
-            .iter()
-            .zip(&vals)
-            .map(|(p, v)| (p.row, p.col, *v))
-            .collect()
+    pub fn jacobian_entries(&self) -> Vec<(usize, usize, f64)> {
+        newton::jacobian_entries(self, &self.u)
     }
 
-    /// Newton's method from the current unknowns: stops when the update is below `tol`
-    /// relative to the unknowns (max norm), or below [`STALL`] and no longer shrinking
-    /// (round-off), at most `max_iterations` linear solves.
-    ///
-    /// The pattern of the Jacobian, its column ordering and the LU's symbolic analysis
-    /// are computed once per window; each iteration refactors numerically (faer allocates
-    /// the matrix's value array and its factors' storage there).
+    /// Newton's method from the current unknowns ([`newton::solve`]).
     pub fn newton(&mut self, tol: f64, max_iterations: u32) -> Result<NewtonStats, Failure> {
-        let n = self.unknowns();
-        let mut r = vec![0.0; n];
-        let mut vals = Vec::new();
-        let mut pairs = Vec::new();
-        self.assemble(&mut r, &mut vals, Some(&mut pairs));
-        let fail = |this: &Window, r: &[f64], it: u32, linear: Option<String>| Failure {
-            iterations: it,
-            residual: r.iter().fold(0.0, |a: f64, x| a.max(x.abs())),
-            place: this.place_of_largest(r),
-            linear,
-        };
-        let (sym, argsort): (SymbolicSparseColMat<usize>, Argsort<usize>) =
-            match SymbolicSparseColMat::try_new_from_indices(n, n, &pairs) {
-                Ok(x) => x,
-                Err(e) => return Err(fail(self, &r, 0, Some(format!("{e:?}")))),
-            };
-        // The supernodal factorization pivots by dense partial pivoting within its panels
-        // and lets a zero pivot through as a non-finite solution (checked below); the
-        // simplicial one panics on it.
-        let params = LuSymbolicParams {
-            supernodal_flop_ratio_threshold: SupernodalThreshold::FORCE_SUPERNODAL,
-            ..Default::default()
-        };
-        let symbolic: SymbolicLu<usize> = match factorize_symbolic_lu(sym.as_ref(), params) {
-            Ok(s) => s,
-            Err(e) => return Err(fail(self, &r, 0, Some(format!("{e:?}")))),
-        };
-        let par = Par::Seq;
-        let req = symbolic
-            .factorize_numeric_lu_scratch::<f64>(par, Default::default())
-            .or(symbolic.solve_in_place_scratch::<f64>(1, par));
-        let mut mem = MemBuffer::new(req);
-        let mut numeric = NumericLu::<usize, f64>::new();
-        let mut it = 0;
-        let mut du_prev = f64::INFINITY;
-        let mut row_used = vec![false; n];
-        loop {
-            if r.iter().any(|x| !x.is_finite()) {
-                return Err(fail(self, &r, it, None));
-            }
-            if it >= max_iterations {
-                return Err(fail(self, &r, it, None));
-            }
-            let mat = match SparseColMat::new_from_argsort(sym.clone(), &argsort, &vals) {
-                Ok(m) => m,
-                Err(e) => return Err(fail(self, &r, it, Some(format!("{e:?}")))),
-            };
-            // an empty row or column (a massless body, a joint that acts on nothing) is
-            // reported naming its equation or unknown, which the LU's zero pivot cannot
-            if let Some(why) = self.singular_line(mat.as_ref(), &mut row_used) {
-                return Err(fail(self, &r, it, Some(why)));
-            }
-            let lu = match symbolic.factorize_numeric_lu(
-                &mut numeric,
-                mat.as_ref(),
-                par,
-                MemStack::new(&mut mem),
-                Default::default(),
-            ) {
-                Ok(lu) => lu,
-                Err(e) => return Err(fail(self, &r, it, Some(format!("{e:?}")))),
-            };
-            for x in r.iter_mut() {
-                *x = -*x;
-            }
-            lu.solve_in_place_with_conj(
-                Conj::No,
-                MatMut::from_column_major_slice_mut(&mut r, n, 1),
-                par,
-                MemStack::new(&mut mem),
-            );
-            if r.iter().any(|x| !x.is_finite()) {
-                // the unknowns are left as they were: report the residual there
-                self.assemble(&mut r, &mut vals, None);
-                let why =
-                    "the Newton matrix is singular to working precision (its LU has a zero pivot)";
-                return Err(fail(self, &r, it, Some(why.into())));
-            }
-            it += 1;
-            let mut du = 0.0f64;
-            let mut um = 1.0f64;
-            for (u, d) in self.u.iter_mut().zip(&r) {
-                *u += d;
-                du = du.max(d.abs());
-                um = um.max(u.abs());
-            }
-            self.assemble(&mut r, &mut vals, None);
-            // converged: the update is below the tolerance, or Newton has stalled at the
-            // round-off floor of an ill-scaled window (short elements: updates of 1e-10
-            // that no longer shrink) far below the solution's own error
-            let stalled = it >= 3 && du <= STALL * um && du > 0.25 * du_prev;
-            du_prev = du;
-            if (du <= tol * um || stalled) && r.iter().all(|x| x.is_finite()) {
-                return Ok(NewtonStats {
-                    iterations: it,
-                    residual: r.iter().fold(0.0, |a: f64, x| a.max(x.abs())),
-                });
-            }
-        }
+        let mut u = std::mem::take(&mut self.u);
+        let mut bufs = std::mem::take(&mut self.bufs);
+        let out = newton::solve(&*self, &mut u, &mut bufs, tol, max_iterations);
+        (self.u, self.bufs) = (u, bufs);
+        out
     }
 
-    /// Why the Newton matrix `mat` cannot be factorized without a zero pivot, when a
-    /// whole row or column of it is zero or one of its entries is not finite (`row_used`:
-    /// scratch of one flag per row).
-    fn singular_line(
-        &self,
-        mat: faer::sparse::SparseColMatRef<'_, usize, f64>,
-        row_used: &mut [bool],
-    ) -> Option<String> {
-        let n = mat.nrows();
-        let (col_ptr, row_idx, val) = (mat.col_ptr(), mat.row_idx(), mat.val());
-        row_used.fill(false);
-        for j in 0..n {
-            let mut col_used = false;
-            for k in col_ptr[j]..col_ptr[j + 1] {
-                let v = val[k];
-                if !v.is_finite() {
-                    return Some(format!(
-                        "the Newton matrix has a non-finite entry ({v}) in {}",
-                        self.place_of_equation(row_idx[k])
-                    ));
-                }
-                if v != 0.0 {
-                    col_used = true;
-                    row_used[row_idx[k]] = true;
-                }
-            }
-            if !col_used {
-                return Some(format!(
-                    "the Newton matrix is singular: no equation depends on {}",
-                    self.place_of_unknown(j)
-                ));
-            }
+    fn places(&self) -> Places<'_> {
+        Places {
+            t0: self.t0,
+            h: self.h,
+            body_names: &self.names.0,
+            joint_names: &self.names.1,
         }
-        let i = row_used.iter().position(|u| !u)?;
-        Some(format!(
-            "the Newton matrix is singular: {} depends on no unknown",
-            self.place_of_equation(i)
-        ))
     }
+}
 
-    /// The body or joint, field and time of unknown `i`.
+impl Discretization for Window {
+    fn unknowns(&self) -> usize {
+        self.u.len()
+    }
+    fn elements(&self) -> usize {
+        self.elements
+    }
+    fn element(&self, e: usize, u: &[f64], buf: &mut ElementBuffer) {
+        Window::element(self, e, u, buf);
+    }
     fn place_of_unknown(&self, i: usize) -> String {
         let fields = [
             "unknown q",
@@ -741,61 +540,19 @@ impl Window {
             "unknown s",
         ];
         let nodes = 1..2 * self.elements + 1;
-        self.place(i, (&self.kin_off, nodes, fields), (&self.frc_off, "force"))
-    }
-
-    /// The body or joint, equation and time of the largest entry of `r`.
-    fn place_of_largest(&self, r: &[f64]) -> String {
-        match crate::integrators::worst_entry(r) {
-            Some((i, _)) => self.place_of_equation(i),
-            None => "no equations".into(),
-        }
-    }
-
-    /// The body or joint, equation and time of equation `i`.
-    fn place_of_equation(&self, i: usize) -> String {
-        let nodes = 0..2 * self.elements;
-        self.place(
+        self.places().find(
             i,
-            (&self.kin_row, nodes, BODY_EQUATIONS),
-            (&self.frc_row, "velocity constraint"),
+            (&self.kin_off, nodes, &fields),
+            (&self.frc_off, "force", &["x", "y"]),
         )
     }
-
-    /// Which body or joint line `i` (an equation or an unknown) belongs to, and its time:
-    /// bodies' blocks of [`FIELDS`] lines start at `offsets[j]` for the nodes `j` of
-    /// `nodes` (named by `names`, at `t₀ + j·h/2`), joints' blocks of two at `joints[n]`
-    /// (at `t₀ + n·h`).
-    fn place(
-        &self,
-        i: usize,
-        (offsets, nodes, names): (&[usize], std::ops::Range<usize>, [&str; FIELDS]),
-        (joints, joint_line): (&[usize], &str),
-    ) -> String {
-        for j in nodes {
-            let o = offsets[j];
-            if (o..o + FIELDS * self.nb).contains(&i) {
-                let (b, f) = ((i - o) / FIELDS, (i - o) % FIELDS);
-                return format!(
-                    "body '{}', {} at t = {:.6} s",
-                    self.names.0[b],
-                    names[f],
-                    self.t0 + j as f64 * self.h / 2.0
-                );
-            }
-        }
-        for (n, &o) in joints.iter().enumerate() {
-            if (o..o + 2 * self.nj).contains(&i) {
-                let (k, c) = ((i - o) / 2, (i - o) % 2);
-                return format!(
-                    "joint '{}', {joint_line} ({}) at t = {:.6} s",
-                    self.names.1[k],
-                    ["x", "y"][c],
-                    self.t0 + n as f64 * self.h
-                );
-            }
-        }
-        format!("line {i}")
+    fn place_of_equation(&self, i: usize) -> String {
+        let nodes = 0..2 * self.elements;
+        self.places().find(
+            i,
+            (&self.kin_row, nodes, &BODY_EQUATIONS),
+            (&self.frc_row, "velocity constraint", &["x", "y"]),
+        )
     }
 }
 
