@@ -10,6 +10,7 @@
 //! cargo run --release -p mbdc-bench -- meshes-assembly [SCALE] [ROUNDS]  the assembly strategies side by side alone
 //! cargo run --release -p mbdc-bench -- checkpoints [ROUNDS]  checkpoint save, write and restart read against a step and the disk
 //! cargo run --release -p mbdc-bench -- output [ROUNDS] [SCALE]  whole runs with output off and every K steps, against the disk
+//! cargo run --release -p mbdc-bench -- state-time [ROUNDS]  one state_time window on 1 and 2 threads: speed-up, sequential fraction, projection
 //! ```
 //!
 //! Timings are interleaved rounds (every candidate once per round, in turn) and the best of
@@ -38,6 +39,7 @@ mod feti;
 mod meshes;
 mod output;
 mod ranks;
+mod state_time;
 
 fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..")
@@ -90,6 +92,9 @@ fn main() {
             args.get(2).and_then(|s| s.parse().ok()).unwrap_or(20),
             args.get(3).and_then(|s| s.parse().ok()).unwrap_or(3),
         ),
+        Some("state-time") => {
+            state_time::state_time(args.get(1).and_then(|s| s.parse().ok()).unwrap_or(3))
+        }
         Some("profile") => profile(args.get(1).and_then(|s| s.parse().ok()).unwrap_or(200_000)),
         Some("startup") => startup(
             &args
@@ -99,7 +104,7 @@ fn main() {
         ),
         _ => {
             eprintln!(
-                "usage: mbdc-bench steps [ROUNDS] | size | startup [MBDC] | profile [STEPS] | beams [ROUNDS] | meshes [SCALE] [ROUNDS] | meshes-assembly [SCALE] [ROUNDS] | checkpoints [ROUNDS] | output [ROUNDS] [SCALE] | feti [LARGEST] [ROUNDS] | ranks [MBDC] [N] [ROUNDS]"
+                "usage: mbdc-bench steps [ROUNDS] | size | startup [MBDC] | profile [STEPS] | beams [ROUNDS] | meshes [SCALE] [ROUNDS] | meshes-assembly [SCALE] [ROUNDS] | checkpoints [ROUNDS] | output [ROUNDS] [SCALE] | feti [LARGEST] [ROUNDS] | ranks [MBDC] [N] [ROUNDS] | state-time [ROUNDS]"
             );
             std::process::exit(2);
         }

@@ -208,6 +208,26 @@ fn windows_agree_with_one_window() {
     assert!(worst < 1e-2, "{worst}");
 }
 
+/// A window too large to factor is refused before the first step, saying which window
+/// would fit: the spatial chain of 100 links (in a horizontal plane, gravity across it:
+/// the spatial reading) has 3300 unknowns per element.
+#[test]
+fn a_window_too_large_is_refused_with_one_that_fits() {
+    let scene = load_model("bench/chain_spatial.mbd");
+    let sys = Interp::new(&scene).expect("interpretable");
+    let start = State::initial(&sys);
+    let err = StateTime::new(&sys, 1e-4, 4, 64, &start)
+        .err()
+        .expect("refused")
+        .to_string();
+    assert!(
+        err.contains("211200 unknowns (3300 per element)")
+            && err.contains("set `window 60` or less"),
+        "{err}"
+    );
+    assert!(StateTime::new(&sys, 1e-4, 4, 60, &start).is_ok());
+}
+
 /// The model's `window` option sets the elements per window: 64 elements in windows of 16
 /// are four windows, each of a quarter of the equations.
 #[test]

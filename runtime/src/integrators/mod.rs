@@ -766,6 +766,12 @@ pub trait Integrator<S: System> {
     fn end_notice(&self) -> Option<String> {
         None
     }
+    /// The number of steps the run will still ask for, told once before its first step (and
+    /// again after a restart): a method that solves ahead (`state_time`'s windows) need not
+    /// solve past the run's end. Default: ignored.
+    fn set_steps_left(&mut self, steps: u64) {
+        let _ = steps;
+    }
     /// Save or load (by the visitor) every value the method carries from one step to the
     /// next, so that a run restarted from a checkpoint continues bitwise as it would have
     /// ([`crate::contract::persist`]). Returns `false` if the method cannot do that yet (the

@@ -25,8 +25,9 @@
 //! spacing). States inside an element come from the interpolants (velocities from their
 //! derivatives; at element ends the momentum-consistent velocities; in space the
 //! orientation is the rotation nearest to the interpolated cosines); the multipliers are
-//! the interpolated joint forces mapped onto the joints' point rows. A window may end
-//! after the run's end: the last window is solved whole.
+//! the interpolated joint forces mapped onto the joints' point rows. The last window is
+//! cut at the run's end when the run says where that is
+//! ([`Integrator::set_steps_left`]).
 //!
 //! **Allocation.** Between window solves a step allocates nothing. A window solve
 //! allocates its unknowns, buffers and the sparse LU's symbolic analysis, and faer
@@ -57,6 +58,9 @@ pub const DEFAULT_WINDOW: usize = crate::contract::scene::DEFAULT_STATE_TIME_WIN
 pub const NEWTON_TOLERANCE: f64 = 1e-11;
 /// Newton's iteration limit per window.
 pub const NEWTON_MAX_ITERATIONS: u32 = 30;
+/// Most unknowns in one window: the sparse LU of a larger one needs gigabytes (its node
+/// blocks fill in: a window of 19 000 unknowns of a nine-body star took 385 MB).
+pub const MAX_WINDOW_UNKNOWNS: usize = 200_000;
 /// Explicit steps per node spacing of the initial-guess sweep.
 const GUESS_SUBSTEPS: usize = 4;
 
@@ -80,6 +84,11 @@ pub struct StateTime {
     /// Loaded from a checkpoint: the current window must be solved again from
     /// `win_start` before the next step.
     resolve: bool,
+    /// Newton's statistics of the last window solved.
+    last: newton::NewtonStats,
+    /// The step count (since the start) at which the run ends, when told: the last window
+    /// is cut there.
+    end_step: Option<u64>,
 }
 
 /// How the method reads the scene.
@@ -222,6 +231,23 @@ impl StateTime {
                     .into(),
             ));
         }
+        let per_element = match &reading {
+            Reading::Planar { model, .. } => 10 * model.bodies.len() + 2 * model.joints.len(),
+            Reading::Spatial { model } => 30 * model.bodies.len() + 3 * model.joints.len(),
+        };
+        let unknowns = window_elements.saturating_mul(per_element);
+        if unknowns > MAX_WINDOW_UNKNOWNS {
+            let fits = MAX_WINDOW_UNKNOWNS / per_element;
+            return Err(StartError::Invalid(if fits == 0 {
+                format!(
+                    "state_time: one time element of this scene has {per_element} unknowns, more than a window may have ({MAX_WINDOW_UNKNOWNS}); use another method"
+                )
+            } else {
+                format!(
+                    "state_time: a window of {window_elements} time elements of this scene has {unknowns} unknowns ({per_element} per element), more than the limit of {MAX_WINDOW_UNKNOWNS} (its sparse LU would need gigabytes): set `window {fits}` or less in the method's options"
+                )
+            }));
+        }
         let rows = sys.layout().rows;
         let mut cur = start.clone();
         cur.lambda.resize(rows, 0.0);
@@ -240,7 +266,15 @@ impl StateTime {
             ce: ConstraintEval::new(rows),
             stats: Stats::default(),
             resolve: false,
+            last: newton::NewtonStats::default(),
+            end_step: None,
         })
+    }
+
+    /// Newton's statistics of the last window solved (iterations, residual, and the wall
+    /// time in assembly and in the sparse LU: what limits the parallel speed-up).
+    pub fn last_window(&self) -> newton::NewtonStats {
+        self.last
     }
 
     /// Whether the scene is read as planar (five fields per body) rather than spatial.
@@ -255,8 +289,9 @@ impl StateTime {
         }
     }
 
-    /// The planar window of `W` elements from the current state (the loads sampled once).
-    fn planar_window<S: System>(&mut self, sys: &S) -> Result<Window, StepError> {
+    /// The planar window of `elements` elements from the current state (the loads sampled
+    /// once).
+    fn planar_window<S: System>(&mut self, sys: &S, elements: usize) -> Result<Window, StepError> {
         let Reading::Planar {
             model,
             base,
@@ -294,16 +329,13 @@ impl StateTime {
         let mut wrench = vec![Wrench::default(); nb];
         let mut off_plane: Option<(usize, f64)> = None;
         let (pose, twist) = (&s.pose, &s.twist);
-        let w_el = self.window_elements;
-        let win = Window::new(model, w_el, he, s.t, start, &offsets, |t, out| {
+        let win = Window::new(model, elements, he, s.t, start, &offsets, |t, out| {
             sys.applied(t, pose, twist, &mut wrench);
             for (b, (o, w)) in out.iter_mut().zip(&wrench).enumerate() {
-                let tw = pose[b].c * w.t;
-                if w.f.dot(&plane.n).abs() > 1e-9 * (1.0 + w.f.norm())
-                    || tw.cross(&plane.n).norm() > 1e-9 * (1.0 + tw.norm())
-                {
+                if planar::off_plane(&plane, &pose[b], w).is_some() {
                     off_plane.get_or_insert((b, t));
                 }
+                let tw = pose[b].c * w.t;
                 *o = [w.f.dot(&plane.e1), w.f.dot(&plane.e2), tw.dot(&plane.n)];
             }
         });
@@ -311,7 +343,7 @@ impl StateTime {
             return Err(StepError::Linalg {
                 what: "state_time",
                 message: format!(
-                    "body '{}': an applied load leaves the plane of motion at t = {t:.6} s (a force along the normal or a torque about an in-plane axis); state_time takes such loads in its spatial reading, not in a planar scene (give the motion an out-of-plane component, or keep the loads in the plane)",
+                    "body '{}': an applied load leaves the plane of motion at t = {t:.6} s (a force along the normal or a torque about an in-plane axis), though it was in the plane at the start, where state_time chose its planar reading: keep the loads in the plane",
                     model.bodies[b].name
                 ),
             });
@@ -319,8 +351,13 @@ impl StateTime {
         Ok(win)
     }
 
-    /// The spatial window of `W` elements from the current state.
-    fn spatial_window<S: System>(&self, sys: &S, model: &Spatial) -> SpatialWindow {
+    /// The spatial window of `elements` elements from the current state.
+    fn spatial_window<S: System>(
+        &self,
+        sys: &S,
+        model: &Spatial,
+        elements: usize,
+    ) -> SpatialWindow {
         let s = &self.cur;
         let start = (0..model.bodies.len())
             .map(|b| spatial_window::BodyStart {
@@ -333,7 +370,7 @@ impl StateTime {
         let he = self.h * self.spe as f64;
         let mut wrench = vec![Wrench::default(); model.bodies.len()];
         let (pose, twist) = (&s.pose, &s.twist);
-        SpatialWindow::new(model, self.window_elements, he, s.t, start, |t, out| {
+        SpatialWindow::new(model, elements, he, s.t, start, |t, out| {
             sys.applied(t, pose, twist, &mut wrench);
             for ((o, w), p) in out.iter_mut().zip(&wrench).zip(pose) {
                 *o = spatial_window::Load {
@@ -344,12 +381,21 @@ impl StateTime {
         })
     }
 
-    /// Solve the next window from the current state. Returns Newton's iterations.
-    fn next_window<S: System>(&mut self, sys: &S) -> Result<u32, StepError> {
+    /// Solve the next window from the current state, which the run reached at step
+    /// `at` (since its start): `W` elements, fewer if the run ends sooner. Returns Newton's
+    /// iterations.
+    fn next_window<S: System>(&mut self, sys: &S, at: u64) -> Result<u32, StepError> {
         self.win_start.clone_from(&self.cur);
+        let elements = match self.end_step {
+            Some(end) => {
+                let left = end.saturating_sub(at).div_ceil(self.spe as u64).max(1);
+                self.window_elements.min(left as usize)
+            }
+            None => self.window_elements,
+        };
         let mut win = match &self.reading {
-            Reading::Planar { .. } => Win::Planar(self.planar_window(sys)?),
-            Reading::Spatial { model } => Win::Spatial(self.spatial_window(sys, model)),
+            Reading::Planar { .. } => Win::Planar(self.planar_window(sys, elements)?),
+            Reading::Spatial { model } => Win::Spatial(self.spatial_window(sys, model, elements)),
         };
         self.guess(sys, &mut win)?;
         let t0 = win.t0();
@@ -372,6 +418,7 @@ impl StateTime {
             }
         })?;
         self.stats.cosine_drift = self.stats.cosine_drift.max(win.orthogonality_drift());
+        self.last = stats;
         self.stats.windows += 1;
         self.stats.iterations += stats.iterations;
         self.stats.max_iterations = self.stats.max_iterations.max(stats.iterations);
@@ -623,11 +670,12 @@ impl<S: System> Integrator<S> for StateTime {
             self.resolve = false;
             let (k, stats, cur) = (self.k, self.stats, self.cur.clone());
             self.cur.clone_from(&self.win_start);
-            self.next_window(sys)?;
+            self.next_window(sys, self.steps - k as u64)?;
             (self.k, self.stats, self.cur) = (k, stats, cur);
         }
-        if self.win.is_none() || self.k >= self.window_elements * self.spe {
-            iterations = self.next_window(sys)?;
+        let past = |w: &Win| self.k >= w.elements() * self.spe;
+        if self.win.as_ref().is_none_or(past) {
+            iterations = self.next_window(sys, self.steps)?;
         }
         self.k += 1;
         self.steps += 1;
@@ -644,6 +692,11 @@ impl<S: System> Integrator<S> for StateTime {
     }
     fn active(&self) -> &[bool] {
         &self.cur.active
+    }
+    /// The last window is cut at the run's end: a short run solves no more elements than
+    /// it needs.
+    fn set_steps_left(&mut self, steps: u64) {
+        self.end_step = Some(self.steps + steps);
     }
     /// The direction cosines are unknowns of their own (notes F §2.1): how far `c² + s²`
     /// strays from 1 at the nodes measures how well the elements resolve the rotation, and

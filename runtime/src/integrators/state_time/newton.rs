@@ -38,6 +38,11 @@ pub struct NewtonStats {
     pub iterations: u32,
     /// Final residual, max norm.
     pub residual: f64,
+    /// Wall time in the assembly of residuals and Jacobians (parallel over elements), s.
+    pub assembly_seconds: f64,
+    /// Wall time in the sparse LU: symbolic analysis, factorizations and solves
+    /// (sequential), s.
+    pub lu_seconds: f64,
 }
 
 /// Why a window's Newton iteration failed.
@@ -140,7 +145,10 @@ pub fn solve<D: Discretization>(
     let mut r = vec![0.0; n];
     let mut vals = Vec::new();
     let mut pairs = Vec::new();
+    let clock = std::time::Instant::now();
     assemble(d, u, bufs, &mut r, &mut vals, Some(&mut pairs));
+    let mut assembly_seconds = clock.elapsed().as_secs_f64();
+    let mut lu_seconds = 0.0;
     let fail = |r: &[f64], it: u32, linear: Option<String>| Failure {
         iterations: it,
         residual: r.iter().fold(0.0, |a: f64, x| a.max(x.abs())),
@@ -150,6 +158,7 @@ pub fn solve<D: Discretization>(
         },
         linear,
     };
+    let clock = std::time::Instant::now();
     let (sym, argsort): (SymbolicSparseColMat<usize>, Argsort<usize>) =
         match SymbolicSparseColMat::try_new_from_indices(n, n, &pairs) {
             Ok(x) => x,
@@ -172,6 +181,7 @@ pub fn solve<D: Discretization>(
         .or(symbolic.solve_in_place_scratch::<f64>(1, par));
     let mut mem = MemBuffer::new(req);
     let mut numeric = NumericLu::<usize, f64>::new();
+    lu_seconds += clock.elapsed().as_secs_f64();
     let mut it = 0;
     let mut du_prev = f64::INFINITY;
     let mut row_used = vec![false; n];
@@ -179,6 +189,7 @@ pub fn solve<D: Discretization>(
         if r.iter().any(|x| !x.is_finite()) || it >= max_iterations {
             return Err(fail(&r, it, None));
         }
+        let clock = std::time::Instant::now();
         let mat = match SparseColMat::new_from_argsort(sym.clone(), &argsort, &vals) {
             Ok(m) => m,
             Err(e) => return Err(fail(&r, it, Some(format!("{e:?}")))),
@@ -207,6 +218,7 @@ pub fn solve<D: Discretization>(
             par,
             MemStack::new(&mut mem),
         );
+        lu_seconds += clock.elapsed().as_secs_f64();
         if r.iter().any(|x| !x.is_finite()) {
             // the unknowns are left as they were: report the residual there
             assemble(d, u, bufs, &mut r, &mut vals, None);
@@ -222,7 +234,9 @@ pub fn solve<D: Discretization>(
             du = du.max(d.abs());
             um = um.max(u.abs());
         }
+        let clock = std::time::Instant::now();
         assemble(d, u, bufs, &mut r, &mut vals, None);
+        assembly_seconds += clock.elapsed().as_secs_f64();
         // converged: the update is below the tolerance, or Newton has stalled at the
         // round-off floor of an ill-scaled window (short elements: updates of 1e-10 that
         // no longer shrink) far below the solution's own error
@@ -232,6 +246,8 @@ pub fn solve<D: Discretization>(
             return Ok(NewtonStats {
                 iterations: it,
                 residual: r.iter().fold(0.0, |a: f64, x| a.max(x.abs())),
+                assembly_seconds,
+                lu_seconds,
             });
         }
     }

@@ -10,7 +10,7 @@
 //! other scene is refused with the body or joint that breaks the rule and why.
 
 use super::scope::{self, Joint};
-use crate::contract::system::{JointKernel, System};
+use crate::contract::system::{JointKernel, Pose, System, Wrench};
 use crate::integrators::State;
 use nalgebra::Vector3;
 
@@ -147,9 +147,31 @@ pub fn read<S: System + ?Sized>(sys: &S, start: &State) -> Result<Planar, String
             }
         }
     }
+    // the loads at the start: a force along the normal or a torque about an in-plane axis
+    // makes the motion leave the plane (a load that leaves it later stops the run there)
+    let mut wrench = vec![Wrench::default(); nb];
+    sys.applied(start.t, &start.pose, &start.twist, &mut wrench);
+    for (b, w) in wrench.iter().enumerate() {
+        if let Some(why) = off_plane(&plane, &start.pose[b], w) {
+            return Err(format!("body '{}': {why}", l.body_names[b]));
+        }
+    }
     Ok(Planar {
         plane,
         bodies,
         joints,
     })
+}
+
+/// Why the applied load `w` on a body at `pose` leaves the plane (a force along the normal,
+/// or a torque about an in-plane axis), if it does.
+pub fn off_plane(plane: &Plane, pose: &Pose, w: &Wrench) -> Option<&'static str> {
+    let tw = pose.c * w.t;
+    if w.f.dot(&plane.n).abs() > 1e-9 * (1.0 + w.f.norm()) {
+        Some("an applied force has a component along the plane's normal")
+    } else if tw.cross(&plane.n).norm() > 1e-9 * (1.0 + tw.norm()) {
+        Some("an applied torque has a component about an in-plane axis")
+    } else {
+        None
+    }
 }
