@@ -101,6 +101,25 @@ fn run(elements: usize, spe: u32, window: usize) -> (Vec<State>, Stats, Option<S
 
 type Stats = Vec<(&'static str, f64)>;
 
+/// Two runs' states are the same bits: poses, twists and multipliers.
+fn assert_identical(a: &[State], b: &[State]) {
+    assert_eq!(a.len(), b.len());
+    for (x, y) in a.iter().zip(b) {
+        assert_eq!(x.pose, y.pose);
+        assert_eq!(x.twist, y.twist);
+        assert_eq!(x.lambda, y.lambda);
+    }
+}
+
+/// `f` in a rayon pool of `threads` threads.
+fn on_threads<T: Send>(threads: usize, f: impl FnOnce() -> T + Send) -> T {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .expect("pool")
+        .install(f)
+}
+
 fn stat(stats: &[(&'static str, f64)], name: &str) -> f64 {
     stats.iter().find(|s| s.0 == name).expect(name).1
 }
@@ -265,19 +284,8 @@ fn the_window_option_of_the_model_is_honoured() {
 /// threads.
 #[test]
 fn one_and_two_threads_give_identical_results() {
-    let on = |threads: usize| {
-        rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .expect("pool")
-            .install(|| run(64, 1, 32).0)
-    };
-    let (a, b) = (on(1), on(2));
-    for (x, y) in a.iter().zip(&b) {
-        assert_eq!(x.pose, y.pose);
-        assert_eq!(x.twist, y.twist);
-        assert_eq!(x.lambda, y.lambda);
-    }
+    let on = |threads: usize| on_threads(threads, || run(64, 1, 32).0);
+    assert_identical(&on(1), &on(2));
 }
 
 /// The direction cosines' drift from orthonormal is reported, and a run whose elements do
@@ -466,30 +474,21 @@ fn spatial_runs_are_identical_on_1_and_2_threads() {
     let scene = load_model("hard/top.mbd");
     let sys = Interp::new(&scene).expect("interpretable");
     let on = |threads: usize| {
-        rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .expect("pool")
-            .install(|| {
-                let start = State::initial(&sys);
-                let mut st = StateTime::new(&sys, 5e-4, 2, 4, &start).expect("starts");
-                assert!(!st.is_planar());
-                let mut s = start;
-                let mut out = Vec::new();
-                for _ in 0..100 {
-                    st.step(&sys).expect("step");
-                    Integrator::<Interp>::state(&st, &sys, &mut s);
-                    out.push(s.clone());
-                }
-                out
-            })
+        on_threads(threads, || {
+            let start = State::initial(&sys);
+            let mut st = StateTime::new(&sys, 5e-4, 2, 4, &start).expect("starts");
+            assert!(!st.is_planar());
+            let mut s = start;
+            let mut out = Vec::new();
+            for _ in 0..100 {
+                st.step(&sys).expect("step");
+                Integrator::<Interp>::state(&st, &sys, &mut s);
+                out.push(s.clone());
+            }
+            out
+        })
     };
-    let (a, b) = (on(1), on(2));
-    for (x, y) in a.iter().zip(&b) {
-        assert_eq!(x.pose, y.pose);
-        assert_eq!(x.twist, y.twist);
-        assert_eq!(x.lambda, y.lambda);
-    }
+    assert_identical(&on(1), &on(2));
 }
 
 /// Scenes outside the method's scope are refused with the joint and why: a revolute joint

@@ -33,6 +33,7 @@
 //! allocates its unknowns, buffers and the sparse LU's symbolic analysis, and faer
 //! allocates the matrix values and the numeric factors at every Newton iteration.
 
+pub mod grid;
 pub mod newton;
 pub mod planar;
 pub mod scope;
@@ -114,14 +115,14 @@ enum Win {
 impl Win {
     fn elements(&self) -> usize {
         match self {
-            Win::Planar(w) => w.elements,
-            Win::Spatial(w) => w.elements,
+            Win::Planar(w) => w.grid.elements,
+            Win::Spatial(w) => w.grid.elements,
         }
     }
     fn t0(&self) -> f64 {
         match self {
-            Win::Planar(w) => w.t0,
-            Win::Spatial(w) => w.t0,
+            Win::Planar(w) => w.grid.t0,
+            Win::Spatial(w) => w.grid.t0,
         }
     }
     fn unknowns(&self) -> usize {
@@ -141,7 +142,7 @@ impl Win {
         match self {
             Win::Planar(w) => {
                 let mut worst = 0.0f64;
-                for e in 0..w.elements {
+                for e in 0..w.grid.elements {
                     for tau in [0.5, 1.0] {
                         for b in 0..w.bodies() {
                             let (v, _) = w.body_at(e, tau, b);

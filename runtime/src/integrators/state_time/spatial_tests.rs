@@ -86,32 +86,8 @@ fn equation_count_is_30_e_bodies_plus_3_e_plus_1_joints() {
 #[test]
 fn analytic_jacobian_matches_finite_differences() {
     let (model, start) = two_bars();
-    let mut w = SpatialWindow::new(&model, 2, 0.2, 0.0, start, loads);
-    for i in 0..w.u.len() {
-        w.u[i] = 0.3 + 0.7 * ((i as f64) * 0.37).sin();
-    }
-    let n = w.u.len();
-    let mut jac = vec![vec![0.0; n]; n];
-    for (r, c, v) in w.jacobian_entries() {
-        jac[r][c] += v;
-    }
-    let u0 = w.u.clone();
-    let eps = 1e-6;
-    for c in 0..n {
-        w.u.copy_from_slice(&u0);
-        w.u[c] += eps;
-        let rp = w.residual();
-        w.u[c] -= 2.0 * eps;
-        let rm = w.residual();
-        for r in 0..n {
-            let fd = (rp[r] - rm[r]) / (2.0 * eps);
-            assert!(
-                (fd - jac[r][c]).abs() < 1e-7 * (1.0 + fd.abs()),
-                "∂r{r}/∂u{c}: analytic {} vs finite difference {fd}",
-                jac[r][c]
-            );
-        }
-    }
+    let w = SpatialWindow::new(&model, 2, 0.2, 0.0, start, loads);
+    super::tests::assert_jacobian_matches_finite_differences(&w);
 }
 
 /// A free body under a constant force moves on a parabola, and a torque-free body spinning

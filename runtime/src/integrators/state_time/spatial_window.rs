@@ -26,8 +26,9 @@
 //! **Order.** Unknowns and equations are numbered time-major (node by node), so the
 //! Jacobian is banded.
 
+use super::grid::{Grid, NG};
 use super::newton::{self, Discretization, ElementBuffer, Failure, NewtonStats, Places};
-use super::shape::{dpsi, phi, psi, GAUSS6};
+use super::shape::{dpsi, phi, psi};
 use super::spatial::Spatial;
 use crate::contract::math::skew;
 use nalgebra::{Matrix3, Vector3};
@@ -37,8 +38,6 @@ pub const FIELDS: usize = 15;
 const Q: usize = 0;
 const X: usize = 3;
 const C: usize = 6;
-/// Gauss points per element.
-const NG: usize = GAUSS6.len();
 
 /// Names of a body's equations and unknowns, by field index (for failure reports).
 const BODY_EQUATIONS: [&str; FIELDS] = [
@@ -122,12 +121,8 @@ struct Point {
 
 /// The problem of one spatial window: constants, numbering and the current iterate.
 pub struct SpatialWindow {
-    /// Elements.
-    pub elements: usize,
-    /// Element length, s.
-    pub h: f64,
-    /// Start time, s.
-    pub t0: f64,
+    /// The numbering and quadrature.
+    pub grid: Grid,
     nb: usize,
     nj: usize,
     mass: Vec<f64>,
@@ -139,17 +134,8 @@ pub struct SpatialWindow {
     start: Vec<BodyStart>,
     /// Applied loads at `[(e·NG + g)·nb + b]`.
     loads: Vec<Load>,
-    kin_off: Vec<usize>,
-    frc_off: Vec<usize>,
-    kin_row: Vec<usize>,
-    frc_row: Vec<usize>,
     /// Unknowns.
     pub u: Vec<f64>,
-    /// Gauss tables: ψ, ψ̇ (per second), φ, weight × h.
-    tp: [[f64; 3]; NG],
-    td: [[f64; 3]; NG],
-    tf: [[f64; 2]; NG],
-    tw: [f64; NG],
     bufs: Vec<ElementBuffer>,
     names: (Vec<String>, Vec<String>),
 }
@@ -187,47 +173,11 @@ impl SpatialWindow {
             }
             joint_sides.push([(j.a, j.pa), (j.b, j.pb)]);
         }
-        let (mut kin_off, mut frc_off) = (vec![0; 2 * e + 1], vec![0; e + 1]);
-        let (mut kin_row, mut frc_row) = (vec![0; 2 * e], vec![0; e + 1]);
-        let (mut off, mut row) = (0, 0);
-        for j in 0..=2 * e {
-            if j % 2 == 0 {
-                frc_off[j / 2] = off;
-                off += 3 * nj;
-                frc_row[j / 2] = row;
-                row += 3 * nj;
-            }
-            if j >= 1 {
-                kin_off[j] = off;
-                off += FIELDS * nb;
-            }
-            if j < 2 * e {
-                kin_row[j] = row;
-                row += FIELDS * nb;
-            }
-        }
-        debug_assert_eq!(off, row);
-        let mut tp = [[0.0; 3]; NG];
-        let mut td = [[0.0; 3]; NG];
-        let mut tf = [[0.0; 2]; NG];
-        let mut tw = [0.0; NG];
-        for (g, &(t, w)) in GAUSS6.iter().enumerate() {
-            tp[g] = psi(t);
-            td[g] = dpsi(t).map(|d| d / h);
-            tf[g] = phi(t);
-            tw[g] = w * h;
-        }
-        let mut loads = vec![Load::default(); e * NG * nb];
-        for el in 0..e {
-            for (g, &(t, _)) in GAUSS6.iter().enumerate() {
-                let at = (el * NG + g) * nb;
-                load(t0 + (el as f64 + t) * h, &mut loads[at..at + nb]);
-            }
-        }
+        let grid = Grid::new(e, h, t0, FIELDS * nb, 3 * nj);
+        let loads = grid.sample(nb, &mut load);
         SpatialWindow {
-            elements: e,
-            h,
-            t0,
+            u: vec![0.0; grid.unknowns],
+            grid,
             nb,
             nj,
             mass: model.bodies.iter().map(|b| b.m).collect(),
@@ -236,15 +186,6 @@ impl SpatialWindow {
             joint_sides,
             start,
             loads,
-            kin_off,
-            frc_off,
-            kin_row,
-            frc_row,
-            u: vec![0.0; off],
-            tp,
-            td,
-            tf,
-            tw,
             bufs: vec![ElementBuffer::default(); e],
             names: (
                 model.bodies.iter().map(|b| b.name.clone()).collect(),
@@ -256,13 +197,13 @@ impl SpatialWindow {
     /// The index of field `f` of body `b` at node `j` (`None` at the known start node).
     #[inline]
     fn ku(&self, j: usize, b: usize, f: usize) -> Option<usize> {
-        (j > 0).then(|| self.kin_off[j] + FIELDS * b + f)
+        (j > 0).then(|| self.grid.kin_off[j] + FIELDS * b + f)
     }
 
     /// The index of force component `c` of joint `k` at force node `n`.
     #[inline]
     fn fu(&self, n: usize, k: usize, c: usize) -> usize {
-        self.frc_off[n] + 3 * k + c
+        self.grid.frc_off[n] + 3 * k + c
     }
 
     /// Field `f` of body `b` at node `j` in `u`.
@@ -313,7 +254,7 @@ impl SpatialWindow {
         b: usize,
     ) -> (Vector3<f64>, Matrix3<f64>, Vector3<f64>, Vector3<f64>) {
         let p = psi(tau);
-        let d = dpsi(tau).map(|d| d / self.h);
+        let d = dpsi(tau).map(|d| d / self.grid.h);
         let (pt, x) = self.point(&self.u, e, b, &p, &d);
         (x, pt.c, pt.xd, pt.w)
     }
@@ -362,7 +303,7 @@ impl SpatialWindow {
 
     #[inline]
     fn force_at_g(&self, u: &[f64], e: usize, g: usize, k: usize) -> Vector3<f64> {
-        let f = self.tf[g];
+        let f = self.grid.tf[g];
         Vector3::from_fn(|c, _| f[0] * u[self.fu(e, k, c)] + f[1] * u[self.fu(e + 1, k, c)])
     }
 
@@ -398,7 +339,7 @@ impl SpatialWindow {
         let mut mv = Vector3::zeros();
         let mut fj = vec![Vector3::zeros(); self.nj];
         for g in 0..NG {
-            let (w, p, d) = (self.tw[g], self.tp[g], self.td[g]);
+            let (w, p, d) = (self.grid.tw[g], self.grid.tp[g], self.grid.td[g]);
             let (pt, _) = self.point(&self.u, e, b, &p, &d);
             for (k, f) in fj.iter_mut().enumerate() {
                 *f = self.force_at_g(&self.u, e, g, k);
@@ -415,7 +356,7 @@ impl SpatialWindow {
     /// The largest entry of `CᵀC − I` over the nodes of the window and the bodies.
     pub fn orthogonality_drift(&self) -> f64 {
         let mut worst = 0.0f64;
-        for n in 1..=2 * self.elements {
+        for n in 1..=2 * self.grid.elements {
             for b in 0..self.nb {
                 let c = Matrix3::from_fn(|k, l| self.kin(&self.u, n, b, C + 3 * k + l));
                 let d = c.transpose() * c - Matrix3::identity();
@@ -423,17 +364,6 @@ impl SpatialWindow {
             }
         }
         worst
-    }
-
-    /// The residual at the current unknowns (for tests and reports).
-    pub fn residual(&self) -> Vec<f64> {
-        newton::residual(self, &self.u)
-    }
-
-    /// The Jacobian at the current unknowns as `(row, col, value)` entries (duplicates to
-    /// be summed; for tests).
-    pub fn jacobian_entries(&self) -> Vec<(usize, usize, f64)> {
-        newton::jacobian_entries(self, &self.u)
     }
 
     /// Newton's method from the current unknowns ([`newton::solve`]).
@@ -447,8 +377,8 @@ impl SpatialWindow {
 
     fn places(&self) -> Places<'_> {
         Places {
-            t0: self.t0,
-            h: self.h,
+            t0: self.grid.t0,
+            h: self.grid.h,
             body_names: &self.names.0,
             joint_names: &self.names.1,
         }
@@ -482,14 +412,14 @@ impl Discretization for SpatialWindow {
         self.u.len()
     }
     fn elements(&self) -> usize {
-        self.elements
+        self.grid.elements
     }
 
     fn element(&self, e: usize, u: &[f64], buf: &mut ElementBuffer) {
         buf.res.clear();
         buf.jac.clear();
-        let two_e = 2 * self.elements;
-        let (tp, td, tf, tw) = (&self.tp, &self.td, &self.tf, &self.tw);
+        let two_e = 2 * self.grid.elements;
+        let (tp, td, tf, tw) = (&self.grid.tp, &self.grid.td, &self.grid.tf, &self.grid.tw);
         // joint forces and body fields at the Gauss points
         let fj: Vec<[Vector3<f64>; NG]> = (0..self.nj)
             .map(|k| std::array::from_fn(|g| self.force_at_g(u, e, g, k)))
@@ -505,7 +435,7 @@ impl Discretization for SpatialWindow {
                 if j >= two_e {
                     continue;
                 }
-                let row = self.kin_row[j] + FIELDS * b;
+                let row = self.grid.kin_row[j] + FIELDS * b;
                 // residuals
                 let mut re = Vector3::zeros();
                 let mut rn = Vector3::zeros();
@@ -602,7 +532,7 @@ impl Discretization for SpatialWindow {
         // velocity-level joint constraints against the hats of the element's ends
         for k in 0..self.nj {
             for k2 in 0..2 {
-                let row = self.frc_row[e + k2] + 3 * k;
+                let row = self.grid.frc_row[e + k2] + 3 * k;
                 let mut res = Vector3::zeros();
                 for (si, &(body, rho)) in self.joint_sides[k].iter().enumerate() {
                     let Some(b) = body else { continue };
@@ -634,20 +564,20 @@ impl Discretization for SpatialWindow {
     }
 
     fn place_of_unknown(&self, i: usize) -> String {
-        let nodes = 1..2 * self.elements + 1;
+        let nodes = 1..2 * self.grid.elements + 1;
         self.places().find(
             i,
-            (&self.kin_off, nodes, &BODY_UNKNOWNS),
-            (&self.frc_off, "force", &XYZ),
+            (&self.grid.kin_off, nodes, &BODY_UNKNOWNS),
+            (&self.grid.frc_off, "force", &XYZ),
         )
     }
 
     fn place_of_equation(&self, i: usize) -> String {
-        let nodes = 0..2 * self.elements;
+        let nodes = 0..2 * self.grid.elements;
         self.places().find(
             i,
-            (&self.kin_row, nodes, &BODY_EQUATIONS),
-            (&self.frc_row, "velocity constraint", &XYZ),
+            (&self.grid.kin_row, nodes, &BODY_EQUATIONS),
+            (&self.grid.frc_row, "velocity constraint", &XYZ),
         )
     }
 }

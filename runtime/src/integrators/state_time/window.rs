@@ -25,9 +25,10 @@
 //! **Assembly and solve** are those of [`super::newton`]: per element in parallel, added in
 //! element order, a sequential sparse LU.
 
+use super::grid::{Grid, NG};
 use super::newton::{self, Discretization, ElementBuffer, Failure, NewtonStats, Places};
 use super::planar::Planar;
-use super::shape::{dpsi, phi, psi, GAUSS6};
+use super::shape::{dpsi, phi, psi};
 
 /// Fields per body: `q, x, y, c, s`.
 pub const FIELDS: usize = 5;
@@ -36,8 +37,6 @@ const X: usize = 1;
 const Y: usize = 2;
 const C: usize = 3;
 const S: usize = 4;
-/// Gauss points per element.
-const NG: usize = GAUSS6.len();
 
 /// Names of a body's equations, by field index (for failure reports).
 const BODY_EQUATIONS: [&str; FIELDS] = [
@@ -71,12 +70,8 @@ struct Side {
 
 /// The problem of one window: constants, numbering and the current iterate.
 pub struct Window {
-    /// Elements.
-    pub elements: usize,
-    /// Element length, s.
-    pub h: f64,
-    /// Start time, s.
-    pub t0: f64,
+    /// The numbering and quadrature.
+    pub grid: Grid,
     nb: usize,
     nj: usize,
     mass: Vec<f64>,
@@ -88,21 +83,8 @@ pub struct Window {
     start: Vec<BodyStart>,
     /// Applied loads `(Fx, Fy, Tn)` at `[(e·NG + g)·nb + b]`.
     loads: Vec<[f64; 3]>,
-    /// Offset of node `j`'s kinematic unknowns (unused for `j = 0`).
-    kin_off: Vec<usize>,
-    /// Offset of force node `n`'s unknowns.
-    frc_off: Vec<usize>,
-    /// Row of test node `j`'s body equations (`j < 2E`).
-    kin_row: Vec<usize>,
-    /// Row of hat `n`'s constraint equations.
-    frc_row: Vec<usize>,
     /// Unknowns.
     pub u: Vec<f64>,
-    /// Gauss tables: ψ, ψ̇ (per second), φ, weight × h.
-    tp: [[f64; 3]; NG],
-    td: [[f64; 3]; NG],
-    tf: [[f64; 2]; NG],
-    tw: [f64; NG],
     bufs: Vec<ElementBuffer>,
     names: (Vec<String>, Vec<String>),
 }
@@ -143,55 +125,11 @@ impl Window {
             }
             joint_sides.push([(j.a, offsets[k][0]), (j.b, offsets[k][1])]);
         }
-        let mut kin_off = vec![0; 2 * e + 1];
-        let mut frc_off = vec![0; e + 1];
-        let mut off = 0;
-        for j in 0..=2 * e {
-            if j % 2 == 0 {
-                frc_off[j / 2] = off;
-                off += 2 * nj;
-            }
-            if j >= 1 {
-                kin_off[j] = off;
-                off += FIELDS * nb;
-            }
-        }
-        let n = off;
-        let mut kin_row = vec![0; 2 * e];
-        let mut frc_row = vec![0; e + 1];
-        let mut off = 0;
-        for j in 0..=2 * e {
-            if j % 2 == 0 {
-                frc_row[j / 2] = off;
-                off += 2 * nj;
-            }
-            if j < 2 * e {
-                kin_row[j] = off;
-                off += FIELDS * nb;
-            }
-        }
-        debug_assert_eq!(off, n);
-        let mut tp = [[0.0; 3]; NG];
-        let mut td = [[0.0; 3]; NG];
-        let mut tf = [[0.0; 2]; NG];
-        let mut tw = [0.0; NG];
-        for (g, &(t, w)) in GAUSS6.iter().enumerate() {
-            tp[g] = psi(t);
-            td[g] = dpsi(t).map(|d| d / h);
-            tf[g] = phi(t);
-            tw[g] = w * h;
-        }
-        let mut loads = vec![[0.0; 3]; e * NG * nb];
-        for el in 0..e {
-            for (g, &(t, _)) in GAUSS6.iter().enumerate() {
-                let at = (el * NG + g) * nb;
-                load(t0 + (el as f64 + t) * h, &mut loads[at..at + nb]);
-            }
-        }
+        let grid = Grid::new(e, h, t0, FIELDS * nb, 2 * nj);
+        let loads = grid.sample(nb, &mut load);
         Window {
-            elements: e,
-            h,
-            t0,
+            u: vec![0.0; grid.unknowns],
+            grid,
             nb,
             nj,
             mass: model.bodies.iter().map(|b| b.m).collect(),
@@ -200,15 +138,6 @@ impl Window {
             joint_sides,
             start,
             loads,
-            kin_off,
-            frc_off,
-            kin_row,
-            frc_row,
-            u: vec![0.0; n],
-            tp,
-            td,
-            tf,
-            tw,
             bufs: vec![ElementBuffer::default(); e],
             names: (
                 model.bodies.iter().map(|b| b.name.clone()).collect(),
@@ -230,13 +159,13 @@ impl Window {
     /// The index of field `f` of body `b` at node `j` (`None` at the known start node).
     #[inline]
     fn ku(&self, j: usize, b: usize, f: usize) -> Option<usize> {
-        (j > 0).then(|| self.kin_off[j] + FIELDS * b + f)
+        (j > 0).then(|| self.grid.kin_off[j] + FIELDS * b + f)
     }
 
     /// The index of force component `c` of joint `k` at force node `n`.
     #[inline]
     fn fu(&self, n: usize, k: usize, c: usize) -> usize {
-        self.frc_off[n] + 2 * k + c
+        self.grid.frc_off[n] + 2 * k + c
     }
 
     /// Field `f` of body `b` at node `j` in `u`.
@@ -276,7 +205,7 @@ impl Window {
             for a in 0..3 {
                 let x = self.kin(&self.u, 2 * e + a, b, f);
                 v[f] += x * p[a];
-                dv[f] += x * d[a] / self.h;
+                dv[f] += x * d[a] / self.grid.h;
             }
         }
         (v, dv)
@@ -299,7 +228,7 @@ impl Window {
         let mut out = [0.0; 3];
         let nodal = |f: usize, a: usize| self.kin(&self.u, 2 * e + a, b, f);
         for g in 0..NG {
-            let (w, p, d) = (self.tw[g], self.tp[g], self.td[g]);
+            let (w, p, d) = (self.grid.tw[g], self.grid.tp[g], self.grid.td[g]);
             let val = |f: usize| (0..3).map(|a| nodal(f, a) * p[a]).sum::<f64>();
             let der = |f: usize| (0..3).map(|a| nodal(f, a) * d[a]).sum::<f64>();
             let (c, s) = (val(C), val(S));
@@ -321,7 +250,7 @@ impl Window {
 
     #[inline]
     fn force_at_g(&self, u: &[f64], e: usize, g: usize, k: usize) -> [f64; 2] {
-        let f = self.tf[g];
+        let f = self.grid.tf[g];
         [
             f[0] * u[self.fu(e, k, 0)] + f[1] * u[self.fu(e + 1, k, 0)],
             f[0] * u[self.fu(e, k, 1)] + f[1] * u[self.fu(e + 1, k, 1)],
@@ -333,8 +262,8 @@ impl Window {
     fn element(&self, e: usize, u: &[f64], buf: &mut ElementBuffer) {
         buf.res.clear();
         buf.jac.clear();
-        let two_e = 2 * self.elements;
-        let (tp, td, tf, tw) = (&self.tp, &self.td, &self.tf, &self.tw);
+        let two_e = 2 * self.grid.elements;
+        let (tp, td, tf, tw) = (&self.grid.tp, &self.grid.td, &self.grid.tf, &self.grid.tw);
         // joint forces at the Gauss points
         let mut fj = vec![[[0.0; 2]; NG]; self.nj];
         for (k, f) in fj.iter_mut().enumerate() {
@@ -370,7 +299,7 @@ impl Window {
                 if j >= two_e {
                     continue;
                 }
-                let row = |f: usize| Some(self.kin_row[j] + FIELDS * b + f);
+                let row = |f: usize| Some(self.grid.kin_row[j] + FIELDS * b + f);
                 // residuals
                 let mut res = [0.0; FIELDS];
                 for g in 0..NG {
@@ -399,7 +328,8 @@ impl Window {
                     res[2] += m * st.v[1];
                 }
                 for f in 0..FIELDS {
-                    buf.res.push((self.kin_row[j] + FIELDS * b + f, res[f]));
+                    buf.res
+                        .push((self.grid.kin_row[j] + FIELDS * b + f, res[f]));
                 }
                 // Jacobian
                 for a in 0..3 {
@@ -460,8 +390,8 @@ impl Window {
         for k in 0..self.nj {
             for k2 in 0..2 {
                 let n = e + k2;
-                let rx = Some(self.frc_row[n] + 2 * k);
-                let ry = Some(self.frc_row[n] + 2 * k + 1);
+                let rx = Some(self.grid.frc_row[n] + 2 * k);
+                let ry = Some(self.grid.frc_row[n] + 2 * k + 1);
                 let mut res = [0.0; 2];
                 for (si, &(body, rho)) in self.joint_sides[k].iter().enumerate() {
                     let Some(b) = body else { continue };
@@ -485,21 +415,10 @@ impl Window {
                         jac(ry, col(C), s * rb);
                     }
                 }
-                buf.res.push((self.frc_row[n] + 2 * k, res[0]));
-                buf.res.push((self.frc_row[n] + 2 * k + 1, res[1]));
+                buf.res.push((self.grid.frc_row[n] + 2 * k, res[0]));
+                buf.res.push((self.grid.frc_row[n] + 2 * k + 1, res[1]));
             }
         }
-    }
-
-    /// The residual at the current unknowns (for tests and reports).
-    pub fn residual(&self) -> Vec<f64> {
-        newton::residual(self, &self.u)
-    }
-
-    /// The Jacobian at the current unknowns as `(row, col, value)` entries (duplicates to
-    /// be summed; for tests).
-    pub fn jacobian_entries(&self) -> Vec<(usize, usize, f64)> {
-        newton::jacobian_entries(self, &self.u)
     }
 
     /// Newton's method from the current unknowns ([`newton::solve`]).
@@ -513,8 +432,8 @@ impl Window {
 
     fn places(&self) -> Places<'_> {
         Places {
-            t0: self.t0,
-            h: self.h,
+            t0: self.grid.t0,
+            h: self.grid.h,
             body_names: &self.names.0,
             joint_names: &self.names.1,
         }
@@ -526,7 +445,7 @@ impl Discretization for Window {
         self.u.len()
     }
     fn elements(&self) -> usize {
-        self.elements
+        self.grid.elements
     }
     fn element(&self, e: usize, u: &[f64], buf: &mut ElementBuffer) {
         Window::element(self, e, u, buf);
@@ -539,19 +458,19 @@ impl Discretization for Window {
             "unknown c",
             "unknown s",
         ];
-        let nodes = 1..2 * self.elements + 1;
+        let nodes = 1..2 * self.grid.elements + 1;
         self.places().find(
             i,
-            (&self.kin_off, nodes, &fields),
-            (&self.frc_off, "force", &["x", "y"]),
+            (&self.grid.kin_off, nodes, &fields),
+            (&self.grid.frc_off, "force", &["x", "y"]),
         )
     }
     fn place_of_equation(&self, i: usize) -> String {
-        let nodes = 0..2 * self.elements;
+        let nodes = 0..2 * self.grid.elements;
         self.places().find(
             i,
-            (&self.kin_row, nodes, &BODY_EQUATIONS),
-            (&self.frc_row, "velocity constraint", &["x", "y"]),
+            (&self.grid.kin_row, nodes, &BODY_EQUATIONS),
+            (&self.grid.frc_row, "velocity constraint", &["x", "y"]),
         )
     }
 }
