@@ -12,7 +12,7 @@ use mbdc_runtime::integrators::state_time::StateTime;
 use mbdc_runtime::integrators::{Integrator, State};
 use mbdc_runtime::interp::Interp;
 use mbdc_runtime::scene::MethodSpec;
-use mbdc_tests::{load_model, load_model_with, simulate};
+use mbdc_tests::{load_model, load_model_with, method, simulate};
 use nalgebra::Vector3;
 
 const M1: f64 = 1.0;
@@ -228,56 +228,22 @@ fn windows_agree_with_one_window() {
 }
 
 /// A window too large to factor is refused before the first step, saying which window
-/// would fit: the spatial chain of 100 links (in a horizontal plane, gravity across it:
-/// the spatial reading) has 3300 unknowns per element.
+/// would fit: the spatial chain of 100 links (in a horizontal plane, gravity across it: the
+/// spatial reading) has 3300 unknowns per element, and the LU of even one element would be
+/// too large; 8 links have 264 per element, and a window of 64 of them would take about
+/// 850 MB.
 #[test]
 fn a_window_too_large_is_refused_with_one_that_fits() {
-    let scene = load_model("bench/chain_spatial.mbd");
-    let sys = Interp::new(&scene).expect("interpretable");
-    let start = State::initial(&sys);
-    let err = StateTime::new(&sys, 1e-4, 4, 64, &start)
-        .err()
-        .expect("refused")
-        .to_string();
-    assert!(
-        err.contains("211200 unknowns (3300 per element)")
-            && err.contains("set `window 60` or less"),
-        "{err}"
-    );
-    assert!(StateTime::new(&sys, 1e-4, 4, 60, &start).is_ok());
-}
-
-/// The model's `window` option sets the elements per window: 64 elements in windows of 16
-/// are four windows, each of a quarter of the equations.
-#[test]
-fn the_window_option_of_the_model_is_honoured() {
-    let text = std::fs::read_to_string(mbdc_tests::model_path("state_time_double_pendulum.mbd"))
-        .expect("model");
-    let text = text.replace(
-        "method state_time { steps_per_element 4 }",
-        "method state_time { steps_per_element 4; window 16 }",
-    );
-    let scene = mbdc_tests::load_text(&text);
-    assert_eq!(
-        scene.simulate.method,
-        MethodSpec::StateTime {
-            steps_per_element: 4,
-            window: 16
-        }
-    );
-    let t = simulate(
-        &scene,
-        scene.simulate.method.clone(),
-        scene.simulate.step,
-        5.0,
-        1000,
-    );
-    assert!(t.report.failure.is_none(), "{:?}", t.report.failure);
-    assert_eq!(report_stat(&t.report.stats, "windows"), 4.0);
-    assert_eq!(
-        report_stat(&t.report.stats, "equations_per_window"),
-        24.0 * 16.0 + 4.0
-    );
+    for (n, expected) in [
+        ("N=100", "3300 unknowns; the sparse LU of even a one-element window"),
+        ("N=8", "16896 unknowns (264 per element); its sparse LU would take about 850 MB, more than the limit of 128 MB: set `window 9` or less"),
+    ] {
+        let scene = load_model_with("bench/chain_spatial.mbd", &[n]);
+        let t = simulate(&scene, method("state_time"), 1e-4, 1e-3, 1);
+        let f = t.report.failure.expect("refused");
+        assert!(f.cause.contains(expected), "{n}: {}", f.cause);
+        assert_eq!(f.step, 0, "before the first step");
+    }
 }
 
 /// The assembly runs over the elements in parallel; the results are identical on 1 and 2

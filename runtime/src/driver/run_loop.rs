@@ -859,7 +859,6 @@ pub fn run<S: System>(sys: &S, cfg: &RunConfig, obs: &mut dyn Observer) -> RunRe
             ew.save();
         }
         let n_total = step_count(cfg.duration - t_attempt, h);
-        integ.set_steps_left(n_total.saturating_sub(k_done));
         for k in k_done + 1..=n_total {
             let result = integ.step(sys);
             report.steps += 1;

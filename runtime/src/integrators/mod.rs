@@ -212,13 +212,9 @@ pub fn make<'a, S: System + 'a>(
         true,
     ) = (method, meshes.is_empty())
     {
-        return Ok(Box::new(state_time::StateTime::new(
-            sys,
-            h,
-            *steps_per_element,
-            *window as usize,
-            start,
-        )?));
+        let st = state_time::StateTime::new(sys, h, *steps_per_element, *window as usize, start)?;
+        st.check_window().map_err(StartError::Invalid)?;
+        return Ok(Box::new(st));
     }
     if meshes.is_empty() {
         return match rigid(method, sys, h, start)? {
@@ -765,12 +761,6 @@ pub trait Integrator<S: System> {
     /// that has not converged). The driver gives it to the observer and the run report.
     fn end_notice(&self) -> Option<String> {
         None
-    }
-    /// The number of steps the run will still ask for, told once before its first step (and
-    /// again after a restart): a method that solves ahead (`state_time`'s windows) need not
-    /// solve past the run's end. Default: ignored.
-    fn set_steps_left(&mut self, steps: u64) {
-        let _ = steps;
     }
     /// Save or load (by the visitor) every value the method carries from one step to the
     /// next, so that a run restarted from a checkpoint continues bitwise as it would have

@@ -26,8 +26,8 @@
 //! derivatives; at element ends the momentum-consistent velocities; in space the
 //! orientation is the rotation nearest to the interpolated cosines); the multipliers are
 //! the interpolated joint forces mapped onto the joints' point rows. The last window is
-//! cut at the run's end when the run says where that is
-//! ([`Integrator::set_steps_left`]).
+//! solved whole even when the run ends inside it, so that a run's frames do not depend on
+//! its duration.
 //!
 //! **Allocation.** Between window solves a step allocates nothing. A window solve
 //! allocates its unknowns, buffers and the sparse LU's symbolic analysis, and faer
@@ -59,9 +59,12 @@ pub const DEFAULT_WINDOW: usize = crate::contract::scene::DEFAULT_STATE_TIME_WIN
 pub const NEWTON_TOLERANCE: f64 = 1e-11;
 /// Newton's iteration limit per window.
 pub const NEWTON_MAX_ITERATIONS: u32 = 30;
-/// Most unknowns in one window: the sparse LU of a larger one needs gigabytes (its node
-/// blocks fill in: a window of 19 000 unknowns of a nine-body star took 385 MB).
-pub const MAX_WINDOW_UNKNOWNS: usize = 200_000;
+/// The largest estimated memory of a window's sparse LU that a run accepts
+/// ([`StateTime::check_window`]): the LU fills in the node blocks of a spatial window (a
+/// window of 64 elements of a nine-body star, 19 000 unknowns, took 385 MB, and one of a
+/// six-link chain, 12 700 unknowns, 498 MB; 500 elements of an 8-link chain, 132 000
+/// unknowns, took 75 s).
+pub const MAX_WINDOW_LU_BYTES: usize = 128 << 20;
 /// Explicit steps per node spacing of the initial-guess sweep.
 const GUESS_SUBSTEPS: usize = 4;
 
@@ -87,9 +90,6 @@ pub struct StateTime {
     resolve: bool,
     /// Newton's statistics of the last window solved.
     last: newton::NewtonStats,
-    /// The step count (since the start) at which the run ends, when told: the last window
-    /// is cut there.
-    end_step: Option<u64>,
 }
 
 /// How the method reads the scene.
@@ -232,23 +232,6 @@ impl StateTime {
                     .into(),
             ));
         }
-        let per_element = match &reading {
-            Reading::Planar { model, .. } => 10 * model.bodies.len() + 2 * model.joints.len(),
-            Reading::Spatial { model } => 30 * model.bodies.len() + 3 * model.joints.len(),
-        };
-        let unknowns = window_elements.saturating_mul(per_element);
-        if unknowns > MAX_WINDOW_UNKNOWNS {
-            let fits = MAX_WINDOW_UNKNOWNS / per_element;
-            return Err(StartError::Invalid(if fits == 0 {
-                format!(
-                    "state_time: one time element of this scene has {per_element} unknowns, more than a window may have ({MAX_WINDOW_UNKNOWNS}); use another method"
-                )
-            } else {
-                format!(
-                    "state_time: a window of {window_elements} time elements of this scene has {unknowns} unknowns ({per_element} per element), more than the limit of {MAX_WINDOW_UNKNOWNS} (its sparse LU would need gigabytes): set `window {fits}` or less in the method's options"
-                )
-            }));
-        }
         let rows = sys.layout().rows;
         let mut cur = start.clone();
         cur.lambda.resize(rows, 0.0);
@@ -268,7 +251,6 @@ impl StateTime {
             stats: Stats::default(),
             resolve: false,
             last: newton::NewtonStats::default(),
-            end_step: None,
         })
     }
 
@@ -276,6 +258,46 @@ impl StateTime {
     /// time in assembly and in the sparse LU: what limits the parallel speed-up).
     pub fn last_window(&self) -> newton::NewtonStats {
         self.last
+    }
+
+    /// Whether a window's sparse LU fits in memory, as a run requires: its estimated size,
+    /// `200 · unknowns · unknowns per element` bytes (faer's fill-reducing ordering does not
+    /// keep the window's band: the six-link chain's 498 MB is this estimate), must stay
+    /// below [`MAX_WINDOW_LU_BYTES`]. The
+    /// error names the `window` that fits. (Studies that call [`StateTime::new`] directly
+    /// may solve larger windows.)
+    ///
+    /// # Errors
+    /// The window's size, its estimate, and the window that fits.
+    pub fn check_window(&self) -> Result<(), String> {
+        let per_element = match &self.reading {
+            Reading::Planar { model, .. } => 10 * model.bodies.len() + 2 * model.joints.len(),
+            Reading::Spatial { model } => 30 * model.bodies.len() + 3 * model.joints.len(),
+        };
+        let w = self.window_elements;
+        let bytes = |w: usize| {
+            200usize
+                .saturating_mul(w * per_element)
+                .saturating_mul(per_element)
+        };
+        if bytes(w) <= MAX_WINDOW_LU_BYTES {
+            return Ok(());
+        }
+        let fits = MAX_WINDOW_LU_BYTES / bytes(1);
+        let unknowns = w * per_element;
+        let mb = bytes(w) >> 20;
+        Err(if fits == 0 {
+            format!(
+                "state_time: one time element of this scene has {per_element} unknowns; the sparse LU of even a one-element window would take about {} MB, more than the limit of {} MB: use another method",
+                bytes(1) >> 20,
+                MAX_WINDOW_LU_BYTES >> 20
+            )
+        } else {
+            format!(
+                "state_time: a window of {w} time elements of this scene has {unknowns} unknowns ({per_element} per element); its sparse LU would take about {mb} MB, more than the limit of {} MB: set `window {fits}` or less in the method's options",
+                MAX_WINDOW_LU_BYTES >> 20
+            )
+        })
     }
 
     /// Whether the scene is read as planar (five fields per body) rather than spatial.
@@ -382,18 +404,14 @@ impl StateTime {
         })
     }
 
-    /// Solve the next window from the current state, which the run reached at step
-    /// `at` (since its start): `W` elements, fewer if the run ends sooner. Returns Newton's
-    /// iterations.
-    fn next_window<S: System>(&mut self, sys: &S, at: u64) -> Result<u32, StepError> {
+    /// Solve the next window of `W` elements from the current state. Returns Newton's
+    /// iterations. (The last window is solved whole even when the run ends inside it: a
+    /// window's equations couple each element to the next, so cutting it at the run's end
+    /// would make a run's early frames depend on its duration, and a run continued from a
+    /// checkpoint to a later end differ from the run made straight through.)
+    fn next_window<S: System>(&mut self, sys: &S) -> Result<u32, StepError> {
         self.win_start.clone_from(&self.cur);
-        let elements = match self.end_step {
-            Some(end) => {
-                let left = end.saturating_sub(at).div_ceil(self.spe as u64).max(1);
-                self.window_elements.min(left as usize)
-            }
-            None => self.window_elements,
-        };
+        let elements = self.window_elements;
         let mut win = match &self.reading {
             Reading::Planar { .. } => Win::Planar(self.planar_window(sys, elements)?),
             Reading::Spatial { model } => Win::Spatial(self.spatial_window(sys, model, elements)),
@@ -671,12 +689,12 @@ impl<S: System> Integrator<S> for StateTime {
             self.resolve = false;
             let (k, stats, cur) = (self.k, self.stats, self.cur.clone());
             self.cur.clone_from(&self.win_start);
-            self.next_window(sys, self.steps - k as u64)?;
+            self.next_window(sys)?;
             (self.k, self.stats, self.cur) = (k, stats, cur);
         }
         let past = |w: &Win| self.k >= w.elements() * self.spe;
         if self.win.as_ref().is_none_or(past) {
-            iterations = self.next_window(sys, self.steps)?;
+            iterations = self.next_window(sys)?;
         }
         self.k += 1;
         self.steps += 1;
@@ -693,11 +711,6 @@ impl<S: System> Integrator<S> for StateTime {
     }
     fn active(&self) -> &[bool] {
         &self.cur.active
-    }
-    /// The last window is cut at the run's end: a short run solves no more elements than
-    /// it needs.
-    fn set_steps_left(&mut self, steps: u64) {
-        self.end_step = Some(self.steps + steps);
     }
     /// The direction cosines are unknowns of their own (notes F §2.1): how far `c² + s²`
     /// strays from 1 at the nodes measures how well the elements resolve the rotation, and
