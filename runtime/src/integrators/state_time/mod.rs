@@ -211,9 +211,9 @@ impl StateTime {
         window_elements: usize,
         start: &State,
     ) -> Result<StateTime, StartError> {
-        let planar = planar::read(sys, start).map(|_| ());
-        let model = spatial::read(sys, planar.as_ref().map(|_| ()).map_err(|s| s.as_str()))
-            .map_err(StartError::Invalid)?;
+        let not_planar = planar::read(sys, start).err();
+        let verdict = not_planar.as_deref().map_or(Ok(()), Err);
+        let model = spatial::read(sys, verdict).map_err(StartError::Invalid)?;
         let reading = Reading::Spatial { model };
         Self::with_reading(sys, h, steps_per_element, window_elements, start, reading)
     }
