@@ -614,24 +614,31 @@ fn the_balance_books_the_work_of_a_torque() {
 /// its kinetic energy stays constant, so the motor's work up to t is the change of potential
 /// energy, m g (L/2) sin ωt = −1.3705 J at t = 3 s. Every method but `penalty` (whose soft
 /// driver lets the rod lag; it stops on the violation) books it within 10⁻³ J and closes its
-/// balance within 10⁻³ of the energy in play at h = 1 ms. `rk4`, `dopri5` and `dop853` take
-/// tree joints only: they refuse the scene before the first step, naming the driver.
+/// balance within 10⁻³ of the energy in play at h = 1 ms. `rk4`, `dopri5` and `dop853`
+/// (the driver a cut row, its multiplier the index-1 one at each reported state) book it
+/// within 10⁻⁶ J and close the balance within 10⁻⁶: the trapezoidal sum of the driver's
+/// power over the 1 ms frames is what is left.
 #[test]
 fn the_balance_books_the_work_of_a_driver() {
     let scene = load_model("hard/driven_pendulum.mbd");
     let exact = 9.81 * 0.5 * 6f64.sin();
     for name in all().filter(|n| *n != "penalty") {
         let tr = simulate_watched(&scene, method(name), 1e-3, 3.0, 100);
-        if matches!(name, "rk4" | "dopri5" | "dop853") {
-            let f = tr.report.failure.as_ref().expect("refused");
-            assert!(
-                f.step == 0 && f.cause.contains("joint 'motor'"),
-                "{name}: {f:?}"
-            );
-            continue;
-        }
         assert!(tr.report.finished, "{name}: {:?}", tr.report.failure);
         let e = tr.report.energy;
+        let high_order = matches!(name, "rk4" | "dopri5" | "dop853");
+        eprintln!(
+            "{name}: W = {} (exact {exact}), balance {:.2e}",
+            e.work_drivers, tr.report.max_energy_drift
+        );
+        if high_order {
+            assert!(
+                (e.work_drivers - exact).abs() < 1e-6 && tr.report.max_energy_drift < 1e-6,
+                "{name}: W = {} against {exact}, balance {}",
+                e.work_drivers,
+                tr.report.max_energy_drift
+            );
+        }
         assert!(
             (e.work_drivers - exact).abs() < 1e-3,
             "{name}: W = {} against {exact}",
@@ -967,8 +974,13 @@ const SQUEEZER_TRAVEL: f64 = 15.81077119629904 + 0.061_713_890_014_276_45;
 /// `coordinate_partitioning` 2.13e-5 and `implicit_trapezoid` 4.88e-5 at 10 µs. `penalty`
 /// stops on its violation down to 30 µs and warns at 10 µs (its default ε leaves 2.8 % of a
 /// joint's length); `baumgarte` stops on its violation's growth at 100 µs and finishes at 30
-/// and 10 µs within 1.7e-2 and 1.8e-3 rad. The tree-only methods (`rk4`, `dopri5`, `dop853`)
-/// refuse the closed loops at the start.
+/// and 10 µs within 1.7e-2 and 1.8e-3 rad. The explicit Runge–Kutta methods close the loops
+/// by their index-1 multipliers and a projection after each step: `rk4` is 4.5e-6 rad off
+/// at 100 µs and 1.8e-8 at 30 µs (fourth order, and more while its error falls towards the
+/// reference's), `dopri5` and `dop853` at their default tolerance 1e-9 are within 5.2e-9 rad
+/// at every step from 1 ms down; at 10 µs all three are within 1.3e-9 rad. Their errors
+/// level off at 1.14e-9 rad whatever the step or the method: the agreement with the
+/// published reference ends there (its digits, or the model's constants), not the methods'.
 #[test]
 fn squeezer_matches_the_test_set_or_says_why() {
     let scene = load_model("hard/squeezer.mbd");
@@ -978,6 +990,10 @@ fn squeezer_matches_the_test_set_or_says_why() {
             let tr = simulate_watched(&scene, method(name), h, 0.03, 1_000_000);
             let err = squeezer_error(tr.last());
             let what = format!("squeezer, {name} at h = {h}");
+            eprintln!(
+                "{what}: err {err:.3e}, failure {}",
+                tr.report.failure.is_some()
+            );
             if tr.report.failure.is_none() {
                 assert!((tr.last().t - 0.03).abs() < 1e-12, "{what}");
                 fine.insert((name, (h * 1e6).round() as u64), err);
@@ -1000,6 +1016,27 @@ fn squeezer_matches_the_test_set_or_says_why() {
             "{name}: error {e30:.2e} at 30 µs, {e10:.2e} at 10 µs: not second order"
         );
     }
+    for name in ["rk4", "dopri5", "dop853"] {
+        assert!(
+            fine[&(name, 10)] < 2e-9,
+            "{name}: {:.3e} rad at 10 µs",
+            fine[&(name, 10)]
+        );
+    }
+    for name in ["dopri5", "dop853"] {
+        for h in [1000, 300, 100, 30] {
+            assert!(
+                fine[&(name, h)] < 1e-8,
+                "{name}: {:.3e} rad at {h} µs",
+                fine[&(name, h)]
+            );
+        }
+    }
+    let (e100, e30) = (fine[&("rk4", 100)], fine[&("rk4", 30)]);
+    assert!(
+        e100 / e30 > 100.0,
+        "rk4: error {e100:.2e} at 100 µs, {e30:.2e} at 30 µs: not fourth order"
+    );
 }
 
 /// Every method on the squeezer at a ladder of steps, printed (exploration; the test above
@@ -1064,6 +1101,87 @@ fn toggle_four_bar_far_too_large_steps_are_loud_or_right() {
     }
     // the far-too-large steps are not all quietly right by accident
     assert!(loud >= 12, "{loud} loud cells");
+}
+
+/// Closed loops through singular positions under the explicit Runge–Kutta methods (issue
+/// 19): the toggle four-bar (a parallelogram turning at a constant 2 rad/s through six flat
+/// passages in 10 s, where all its links line up) and the planar four-bar closed by four
+/// revolutes (three rows redundant everywhere). At their own 1 ms step `rk4`, `dopri5` and
+/// `dop853` (tolerance 1e-9) finish without a warning, keep the energy balance within
+/// 10⁻⁹ of the energy in play, and the toggle's crank stays within 10⁻⁸ rad of the exact
+/// θ₀ + ωt; the planar four-bar's end state agrees between the three within 10⁻⁸ m.
+/// Measured: balances 1e-13 to 2e-11, the crank within 7e-11 rad. Before the multipliers'
+/// Tikhonov filter (`natural/loops.rs`), a rank decision or a regularization linear in δ
+/// made `dop853` crawl into a flat passage (steps of 1e-13 s) and leave it with 4 % of the
+/// energy gone.
+#[test]
+fn runge_kutta_methods_pass_singular_positions_of_closed_loops() {
+    let toggle = load_model("hard/toggle_four_bar.mbd");
+    let w = 2.0;
+    for name in ["rk4", "dopri5", "dop853"] {
+        let tr = simulate_watched(&toggle, method(name), 1e-3, 10.0, 10);
+        assert!(
+            tr.report.finished,
+            "toggle, {name}: {:?}",
+            tr.report.failure
+        );
+        assert!(
+            tr.report.warnings.is_empty(),
+            "toggle, {name}: {:?}",
+            tr.report.warnings
+        );
+        let mut err = 0.0f64;
+        for f in &tr.frames {
+            let a = f.pose[0].c * Vector3::y();
+            let th = a.y.atan2(a.x);
+            err = err.max((th - std::f64::consts::FRAC_PI_2 - w * f.t).sin().abs());
+        }
+        eprintln!(
+            "toggle, {name}: crank {err:.2e} rad, balance {:.1e}",
+            tr.report.max_energy_drift
+        );
+        assert!(err < 1e-8, "toggle, {name}: crank {err:.2e} rad off");
+        assert!(
+            tr.report.max_energy_drift < 1e-9,
+            "toggle, {name}: {}",
+            tr.report.max_energy_drift
+        );
+    }
+    let four_bar = load_model("hard/planar_four_bar.mbd");
+    let mut ends = Vec::new();
+    for name in ["rk4", "dopri5", "dop853"] {
+        let tr = simulate_watched(&four_bar, method(name), 1e-3, 5.0, 100);
+        assert!(
+            tr.report.finished,
+            "four-bar, {name}: {:?}",
+            tr.report.failure
+        );
+        assert!(
+            tr.report.warnings.is_empty(),
+            "four-bar, {name}: {:?}",
+            tr.report.warnings
+        );
+        eprintln!(
+            "four-bar, {name}: balance {:.1e}",
+            tr.report.max_energy_drift
+        );
+        assert!(
+            tr.report.max_energy_drift < 1e-9,
+            "four-bar, {name}: {}",
+            tr.report.max_energy_drift
+        );
+        ends.push(tr.last().clone());
+    }
+    for (i, name) in [(1, "dopri5"), (2, "dop853")] {
+        let d = ends[0]
+            .pose
+            .iter()
+            .zip(&ends[i].pose)
+            .map(|(a, b)| (a.r - b.r).norm())
+            .fold(0.0, f64::max);
+        eprintln!("four-bar: rk4 and {name} {d:.1e} m apart at the end");
+        assert!(d < 1e-8, "four-bar: rk4 and {name} {d:.1e} m apart");
+    }
 }
 
 /// The toggle four-bar at steps up to 200× its own, printed (exploration; the test above

@@ -91,8 +91,11 @@
 //! geometric correction; leaf → root and root → leaf: the M-orthogonal correction) and
 //! two per-body passes, over one [`reduced::Node`] per body.
 
+mod loops;
 pub mod reduced;
 pub mod tree;
+
+pub(crate) use loops::Loops;
 
 use nalgebra::Vector3;
 

@@ -55,8 +55,17 @@
 //! only for a step with an output inside it (none when the step ends on the output time).
 //! `rk4` takes one step of `step` per call.
 //!
-//! Closed loops (cut joints, drivers, locks and every other row outside the spanning tree)
-//! are refused at the start for now, naming the joint.
+//! ## Closed loops and other rows outside the tree
+//!
+//! Cut joints, drivers and every other row outside the spanning tree enter each stage by
+//! their index-1 multipliers, `G λ = B_c a₀ − γ_c` with `G = (B_c A)(AᵀMA)⁻¹(B_c A)ᵀ`
+//! formed by one tree solve per cut row ([`Loops`]); the projection after each step puts
+//! the positions back on the cut rows too (Newton in the tree's coordinates, to
+//! round-off) and the velocities on their velocity equations, so loops stay closed at
+//! round-off and the order is kept by the argument above. The multipliers of the
+//! reported state come from its own stage evaluation (for `rk4`, the next step's first
+//! stage; otherwise one more evaluation per reported step). A lock that engages during the
+//! run (an impact) is refused at the start: the methods assume a smooth motion.
 
 pub mod controller;
 pub mod dense;
@@ -64,7 +73,7 @@ pub mod tableau;
 
 use nalgebra::{Quaternion, Vector3};
 
-use super::natural::{tree::Tree, Natural};
+use super::natural::{Loops, Natural};
 use super::{Integrator, StartError, State, StepError, StepInfo};
 use crate::contract::math::quat_rate;
 use crate::contract::persist::{self, StateVisitor};
@@ -83,6 +92,12 @@ const MAX_ATTEMPTS: u64 = 10_000;
 pub struct RungeKutta {
     tab: &'static Tableau,
     nat: Natural,
+    /// The cut rows' multipliers and projection (`None` on a tree).
+    loops: Option<Loops>,
+    /// The multipliers of the reported state (one per layout row; tree rows 0).
+    out_lambda: Vec<f64>,
+    /// Scratch for the stage evaluation that gives the reported multipliers.
+    k_out: Vec<f64>,
     /// The reported step (the driver's `step`; the largest internal step).
     h: f64,
     /// Tolerance and controller of the error-controlled methods.
@@ -161,10 +176,11 @@ fn pack(pose: &[Pose], vel: &[Twist], y: &mut [f64]) {
 }
 
 /// The right-hand side at `(t, y)` into `out` (see the module doc), with the body-level
-/// buffers. One tree solve.
+/// buffers. One tree solve, and `m + 1` more with `m` cut rows.
 #[allow(clippy::too_many_arguments)]
 fn rhs<S: System>(
     nat: &mut Natural,
+    loops: &mut Option<Loops>,
     sys: &S,
     t: f64,
     y: &[f64],
@@ -174,7 +190,10 @@ fn rhs<S: System>(
     out: &mut [f64],
 ) -> Result<(), StepError> {
     unpack(y, pose, vel);
-    nat.tree_accelerations(sys, t, pose, vel, acc)?;
+    match loops {
+        Some(l) => l.stage(nat, sys, t, pose, vel, acc)?,
+        None => nat.tree_accelerations(sys, t, pose, vel, acc)?,
+    }
     for b in 0..pose.len() {
         let o = &mut out[PER_BODY * b..PER_BODY * (b + 1)];
         let qd = quat_rate(&pose[b].q, &vel[b].w);
@@ -184,6 +203,25 @@ fn rhs<S: System>(
         o[10..13].copy_from_slice(acc[b].w.as_slice());
     }
     Ok(())
+}
+
+/// Put `(pose, vel)` at `t` back on the joints: the tree's, and the cut rows' with
+/// `loops` ([`Loops::project`]).
+fn project<S: System>(
+    nat: &mut Natural,
+    loops: &mut Option<Loops>,
+    sys: &S,
+    t: f64,
+    pose: &mut [Pose],
+    vel: &mut [Twist],
+) -> Result<(), StepError> {
+    match loops {
+        Some(l) => l.project(nat, sys, t, pose, vel, true).map(|_| ()),
+        None => {
+            nat.tree_project(sys, pose, vel);
+            Ok(())
+        }
+    }
 }
 
 /// `out = y + h Σ_j w_j k_j` (zero weights skipped).
@@ -211,8 +249,9 @@ impl RungeKutta {
     /// The method `tab` on `sys` with the reported step `h`, starting from `start`.
     /// `tolerance`: error control with that tolerance (the tableau must have an embedded
     /// estimate; `h` is then the first and the largest internal step); `None`: fixed steps
-    /// of `h`. Refuses systems with rows outside the spanning tree (closed loops, drivers,
-    /// locks), naming the joint.
+    /// of `h`. Rows outside the spanning tree (closed loops, drivers) enter by their
+    /// index-1 multipliers ([`Loops`]); a lock that engages during the run is refused,
+    /// naming its joint.
     pub fn new<S: System>(
         sys: &S,
         tab: &'static Tableau,
@@ -221,11 +260,11 @@ impl RungeKutta {
         start: &State,
     ) -> Result<RungeKutta, StartError> {
         let layout = sys.layout();
-        if let Some(&r) = Tree::new(layout).cut_rows.first() {
+        if let Some(r) = start.active.iter().position(|a| !a) {
             let j = &layout.joints[layout.row_joint[r]];
             return Err(StartError::Invalid(format!(
-                "{}: joint '{}' ({}) is not part of the spanning tree (it closes a loop, or is a driver, lock or other non-tree constraint); {} enforces tree joints only for now: use natural_partitioning or staggered for this scene",
-                tab.name, j.name, j.kind, tab.name
+                "{}: joint '{}' ({}) carries a lock that engages during the run, an impact the explicit Runge–Kutta methods do not model (they assume a smooth motion): use natural_partitioning or staggered for this scene",
+                tab.name, j.name, j.kind
             )));
         }
         let control = tab.error.control();
@@ -243,7 +282,26 @@ impl RungeKutta {
         let n = PER_BODY * nb;
         let mut pose = start.pose.clone();
         let mut vel = start.twist.clone();
-        nat.tree_project(sys, &mut pose, &mut vel);
+        let scale = start.pose.iter().fold(1.0f64, |a, p| a.max(p.r.norm()));
+        let mut loops = Loops::new(&nat, layout, scale);
+        match &mut loops {
+            Some(l) => l
+                .project(&mut nat, sys, start.t, &mut pose, &mut vel, false)
+                .map_err(|e| {
+                    let at = match &e {
+                        StepError::NoConvergence { row: Some(r), .. } => {
+                            format!(" (worst at joint '{}')", layout.joints[layout.row_joint[*r]].name)
+                        }
+                        _ => String::new(),
+                    };
+                    StartError::Invalid(format!(
+                        "{}: the initial state cannot be put on the closed loops: {e}{at}; check that the bodies' initial positions close every loop",
+                        tab.name
+                    ))
+                })
+                .map(|_| ())?,
+            None => nat.tree_project(sys, &mut pose, &mut vel),
+        }
         let mut y = vec![0.0; n];
         pack(&pose, &vel, &mut y);
         let control = match (tolerance, control) {
@@ -258,9 +316,13 @@ impl RungeKutta {
             ErrorEstimate::Dop853 { .. } => n,
             ErrorEstimate::None | ErrorEstimate::Embedded { .. } => 0,
         };
+        let with_loops = loops.is_some();
         Ok(RungeKutta {
             tab,
             nat,
+            loops,
+            out_lambda: vec![0.0; layout.rows],
+            k_out: vec![0.0; if with_loops { n } else { 0 }],
             h,
             control,
             h_next: h,
@@ -307,6 +369,7 @@ impl RungeKutta {
             } else {
                 rhs(
                     &mut self.nat,
+                    &mut self.loops,
                     sys,
                     self.t,
                     &self.y,
@@ -337,6 +400,7 @@ impl RungeKutta {
             let (_, tail) = self.k.split_at_mut(i);
             rhs(
                 &mut self.nat,
+                &mut self.loops,
                 sys,
                 self.t + tab.c[i] * hs,
                 &self.y_stage,
@@ -388,6 +452,7 @@ impl RungeKutta {
         if self.tab.fsal == Fsal::OnAccept {
             rhs(
                 &mut self.nat,
+                &mut self.loops,
                 sys,
                 self.t + hs,
                 &self.y_new,
@@ -400,10 +465,17 @@ impl RungeKutta {
         }
         std::mem::swap(&mut self.y_old, &mut self.y);
         std::mem::swap(&mut self.y, &mut self.y_new);
-        unpack(&self.y, &mut self.pose, &mut self.vel);
-        self.nat.tree_project(sys, &mut self.pose, &mut self.vel);
-        pack(&self.pose, &self.vel, &mut self.y);
         self.t += hs;
+        unpack(&self.y, &mut self.pose, &mut self.vel);
+        project(
+            &mut self.nat,
+            &mut self.loops,
+            sys,
+            self.t,
+            &mut self.pose,
+            &mut self.vel,
+        )?;
+        pack(&self.pose, &self.vel, &mut self.y);
         self.h_last = hs;
         self.k0_valid = false;
         self.fsal_pending = self.tab.fsal != Fsal::No;
@@ -417,6 +489,52 @@ impl RungeKutta {
     /// from the continuous extension, projected. `dop853`'s extension evaluates its three
     /// extra stages here, from the step's start `y_old`.
     fn output<S: System>(&mut self, sys: &S, theta: Option<f64>) -> Result<(), StepError> {
+        self.output_state(sys, theta)?;
+        if self.loops.is_none() {
+            return Ok(());
+        }
+        // the reported multipliers: a stage evaluation at the reported state (for a method
+        // without FSAL at a step's end, the next step's first stage)
+        if theta.is_none() && self.tab.fsal == Fsal::No {
+            rhs(
+                &mut self.nat,
+                &mut self.loops,
+                sys,
+                self.t,
+                &self.y,
+                &mut self.pose,
+                &mut self.vel,
+                &mut self.acc,
+                &mut self.k[0],
+            )?;
+            self.k0_valid = true;
+        } else {
+            let t = match theta {
+                Some(th) => self.t - self.h_last + th * self.h_last,
+                None => self.t,
+            };
+            pack(&self.out_pose, &self.out_vel, &mut self.y_stage);
+            rhs(
+                &mut self.nat,
+                &mut self.loops,
+                sys,
+                t,
+                &self.y_stage,
+                &mut self.pose,
+                &mut self.vel,
+                &mut self.acc,
+                &mut self.k_out,
+            )?;
+        }
+        self.evaluations += 1;
+        if let (Some(l), nat) = (&self.loops, &self.nat) {
+            l.multipliers(nat, &mut self.out_lambda);
+        }
+        Ok(())
+    }
+
+    /// The reported pose and twist of [`RungeKutta::output`].
+    fn output_state<S: System>(&mut self, sys: &S, theta: Option<f64>) -> Result<(), StepError> {
         let Some(th) = theta else {
             self.out_pose.copy_from_slice(&self.pose);
             self.out_vel.copy_from_slice(&self.vel);
@@ -432,6 +550,7 @@ impl RungeKutta {
                     dense::dop853_extra_state(&self.y_old, &self.k, done, h, r, &mut self.y_stage);
                     rhs(
                         &mut self.nat,
+                        &mut self.loops,
                         sys,
                         t_old + tableau::DOP853_EXTRA_C[r] * h,
                         &self.y_stage,
@@ -458,9 +577,15 @@ impl RungeKutta {
         }
         self.dense_outputs += 1;
         unpack(&self.y_stage, &mut self.out_pose, &mut self.out_vel);
-        self.nat
-            .tree_project(sys, &mut self.out_pose, &mut self.out_vel);
-        Ok(())
+        let t = self.t - h + th * h;
+        project(
+            &mut self.nat,
+            &mut self.loops,
+            sys,
+            t,
+            &mut self.out_pose,
+            &mut self.out_vel,
+        )
     }
 
     /// What stopped the step-size control, in words (`shrank`: the step went to round-off;
@@ -559,7 +684,7 @@ impl<S: System> Integrator<S> for RungeKutta {
         out.t = self.t_out;
         out.pose.copy_from_slice(&self.out_pose);
         out.twist.copy_from_slice(&self.out_vel);
-        out.lambda.iter_mut().for_each(|l| *l = 0.0);
+        out.lambda.copy_from_slice(&self.out_lambda);
     }
 
     fn active(&self) -> &[bool] {
@@ -581,6 +706,12 @@ impl<S: System> Integrator<S> for RungeKutta {
             v.push(("local_error_max", self.local_error_max));
             v.push(("step_min", self.step_min));
             v.push(("step_max", self.step_max));
+        }
+        if let Some(l) = &self.loops {
+            v.push(("loop_drift_max", l.drift_max));
+            v.push(("loop_projection_iterations", l.projection_iterations as f64));
+            v.push(("cut_rows_void", l.void_start.unwrap_or(0) as f64));
+            v.push(("cut_rows_void_max", l.void_max as f64));
         }
         v
     }
@@ -620,6 +751,10 @@ impl<S: System> Integrator<S> for RungeKutta {
         persist::f64(v, "local_error_max", &mut self.local_error_max);
         persist::f64(v, "step_min", &mut self.step_min);
         persist::f64(v, "step_max", &mut self.step_max);
+        if let Some(l) = &mut self.loops {
+            v.f64s("out_lambda", &mut self.out_lambda);
+            l.persist(v);
+        }
         true
     }
 }
