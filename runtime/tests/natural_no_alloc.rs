@@ -231,3 +231,19 @@ fn runge_kutta_steps_of_a_tree_do_not_allocate() {
         assert_eq!(n, 0, "{name} with dense output");
     }
 }
+
+/// The Runge–Kutta methods on the scene with its cut joint (the cut-row matrix, its
+/// filtered solve and the projection onto the loop at every stage and after every step,
+/// and the multipliers of every reported state) allocate nothing either, with outputs at
+/// the step's end and inside it.
+#[test]
+fn runge_kutta_steps_with_a_cut_joint_do_not_allocate() {
+    for name in ["rk4", "dopri5", "dop853"] {
+        assert_eq!(steps_allocate_with(name, true), 0, "{name}");
+    }
+    for name in ["dopri5", "dop853"] {
+        let (n, dense) = steps_allocate_at(name, true, 0.02);
+        assert!(dense > 0.0, "{name}: no output inside a step");
+        assert_eq!(n, 0, "{name} with dense output");
+    }
+}
