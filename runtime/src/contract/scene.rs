@@ -1193,11 +1193,11 @@ pub enum MethodSpec {
         max_iterations: Option<u32>,
     },
     /// Classical fourth-order Runge–Kutta on the tree coordinates of natural partitioning,
-    /// fixed step (tree joints only).
+    /// fixed step; closed loops and drivers by their index-1 multipliers.
     RungeKutta4,
     /// Dormand–Prince 5(4) on the tree coordinates, error-controlled (PI controller), with
     /// dense output at the output times; `step` is the first and the largest internal step
-    /// (tree joints only).
+    /// (closed loops as for [`MethodSpec::RungeKutta4`]).
     DormandPrince {
         /// Absolute and relative tolerance of the embedded error estimate.
         tolerance: f64,
@@ -1205,7 +1205,7 @@ pub enum MethodSpec {
     /// Dormand–Prince 8(5,3) (Hairer's DOP853) on the tree coordinates: eighth order,
     /// error-controlled by its combined fifth- and third-order estimates, with seventh-order
     /// dense output at the output times; `step` is the first and the largest internal step
-    /// (tree joints only).
+    /// (closed loops as for [`MethodSpec::RungeKutta4`]).
     DormandPrince853 {
         /// Absolute and relative tolerance of the combined error estimate.
         tolerance: f64,
