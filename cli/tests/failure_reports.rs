@@ -365,7 +365,8 @@ fn error_lines(stderr: &str) -> Vec<&str> {
 
 /// `mbdc check` refuses what `mbdc run` refuses before its first step, with the same error:
 /// a step above a beam's explicit limit (the stability gate), a method that does not
-/// simulate beams and a method that does not exist yet (the method's start), a dense method
+/// simulate beams and a method that does not exist yet (the method's start; a lock under
+/// an explicit Runge–Kutta method), a dense method
 /// on too large a system (the runtime's size limit). The run refuses before it writes
 /// anything, also on the compiled route (before it builds a program).
 #[test]
@@ -374,6 +375,7 @@ fn check_refuses_what_run_refuses_before_its_first_step() {
     let cantilever = std::fs::read_to_string(root().join("models/cantilever.mbd")).expect("model");
     let pendulum = std::fs::read_to_string(root().join("models/pendulum.mbd")).expect("model");
     let chain = std::fs::read_to_string(root().join("models/chain.mbd")).expect("model");
+    let arm = std::fs::read_to_string(root().join("models/deployment_arm.mbd")).expect("model");
     let cases = [
         (
             "beam_step",
@@ -397,6 +399,12 @@ fn check_refuses_what_run_refuses_before_its_first_step() {
                 .replace("step 1 ms }", "step 1 ms; method state_time }"),
             &[][..],
             "state_time takes revolute joints in planar scenes only",
+        ),
+        (
+            "rk_lock",
+            arm.replace("method staggered }", "method dop853 }"),
+            &[][..],
+            "method dop853: joint 'spring_wall.lock' (lock) engages during the run: an impact",
         ),
         (
             "dense",

@@ -1675,6 +1675,8 @@ fn step_failure<S: System>(sys: &S, e: &StepError, t: f64, step: u64, h: f64) ->
             format!("{e}"),
             if what.contains("PCG") {
                 format!("raise the PCG limit (`method natural_partitioning {{ max_iterations N }}`, now {iterations}) or loosen its `tolerance`; near a singular configuration of the loops, reduce the step (now {h:.3e} s)")
+            } else if what.contains("closed loops") {
+                format!("the state left the loops further than one Newton projection brings it back, near a singular position of the loop or after a step too long for the motion: reduce the step (now {h:.3e} s) or, for dopri5 and dop853, tighten the `tolerance`; method natural_partitioning regularizes singular positions")
             } else if what.contains("redundant") {
                 "the joints' redundancy changed during the run: remove the redundant rows (`mbdc check` names the joints; spherical or universal joints instead of revolutes close a planar loop without them), or use method staggered, which regularizes them".to_string()
             } else {

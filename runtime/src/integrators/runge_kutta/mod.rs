@@ -73,7 +73,7 @@ pub mod tableau;
 
 use nalgebra::{Quaternion, Vector3};
 
-use super::natural::{Loops, Natural};
+use super::natural::{tree::Tree, Loops, Natural};
 use super::{Integrator, StartError, State, StepError, StepInfo};
 use crate::contract::math::quat_rate;
 use crate::contract::persist::{self, StateVisitor};
@@ -83,6 +83,13 @@ use tableau::{Dense, ErrorEstimate, Fsal, Tableau};
 
 /// Numbers per body in the state vector: position, Euler parameters, velocity, ω.
 const PER_BODY: usize = 13;
+
+/// Most rows outside the spanning tree the methods take: each stage forms the dense
+/// cut-row matrix by one tree solve per row (about `2m + 4` tree solves and an `m × m`
+/// product and factorization per stage, [`Loops`]), which at 96 rows costs some 50 times a
+/// tree's stage. Above it a run is refused, pointing to `natural_partitioning`, whose
+/// cut-row PCG applies the same matrix without forming it.
+pub const MAX_CUT_ROWS: usize = 96;
 
 /// Most internal steps (accepted and rejected) within one call of `step` (one output step):
 /// beyond it the run stops with a report rather than crawl (a stiff contact, a kink).
@@ -263,8 +270,14 @@ impl RungeKutta {
         if let Some(r) = start.active.iter().position(|a| !a) {
             let j = &layout.joints[layout.row_joint[r]];
             return Err(StartError::Invalid(format!(
-                "{}: joint '{}' ({}) carries a lock that engages during the run, an impact the explicit Runge–Kutta methods do not model (they assume a smooth motion): use natural_partitioning or staggered for this scene",
-                tab.name, j.name, j.kind
+                "joint '{}' ({}) engages during the run: an impact, which the explicit Runge–Kutta methods do not model (they assume a smooth motion); use natural_partitioning or staggered for this scene",
+                j.name, j.kind
+            )));
+        }
+        let cut = Tree::new(layout).cut_rows.len();
+        if cut > MAX_CUT_ROWS {
+            return Err(StartError::Invalid(format!(
+                "{cut} constraint rows lie outside the spanning tree (closed loops, drivers, distance and other non-tree joints; `mbdc check --topology` lists them): the explicit Runge–Kutta methods form their {cut} × {cut} matrix at every stage and take at most {MAX_CUT_ROWS}; use natural_partitioning for this scene"
             )));
         }
         let control = tab.error.control();
@@ -295,8 +308,7 @@ impl RungeKutta {
                         _ => String::new(),
                     };
                     StartError::Invalid(format!(
-                        "{}: the initial state cannot be put on the closed loops: {e}{at}; check that the bodies' initial positions close every loop",
-                        tab.name
+                        "the initial state cannot be put on the closed loops: {e}{at}; check that the bodies' initial positions close every loop (`mbdc run --assemble` moves them onto the joints)"
                     ))
                 })
                 .map(|_| ())?,

@@ -375,13 +375,19 @@ fn dop853_evaluates_the_dense_stages_only_for_an_output_inside_a_step() {
 
 /// dop853 saved in the middle of a run (stage derivatives, FSAL stage, controller, dense
 /// output bookkeeping) and loaded into a fresh integrator continues bit for bit as the run
-/// straight through, with outputs inside steps.
+/// straight through, with outputs inside steps: on the pendulum, and on the closed
+/// parallelogram (its reported cut multipliers too).
 #[test]
 fn dop853_restarts_bitwise() {
+    restarts_bitwise(pendulum(), 0.05);
+    restarts_bitwise(parallelogram(), 0.25);
+}
+
+/// [`dop853_restarts_bitwise`] on `sys` with output step `h`, saved after 17 of 40 steps.
+fn restarts_bitwise(sys: Interp, h: f64) {
     use crate::contract::persist::{Loader, Saver};
-    let sys = pendulum();
     let start = State::initial(&sys);
-    let (h, tol, n, k) = (0.05, Some(1e-10), 40, 17);
+    let (tol, n, k) = (Some(1e-10), 40, 17);
     let mut straight = RungeKutta::new(&sys, &DOP853, h, tol, &start).unwrap();
     let mut a = State::initial(&sys);
     for _ in 0..n {
@@ -428,6 +434,9 @@ fn dop853_restarts_bitwise() {
         {
             assert_eq!(x.to_bits(), y.to_bits(), "twist {x} vs {y}");
         }
+    }
+    for (x, y) in a.lambda.iter().zip(&b.lambda) {
+        assert_eq!(x.to_bits(), y.to_bits(), "λ {x} vs {y}");
     }
 }
 
