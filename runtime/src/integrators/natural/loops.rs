@@ -29,9 +29,9 @@
 //! error-controlled method crawls into the singular position and leaves it on the wrong
 //! branch (docs/methods.md, "Closed loops under the explicit methods", has the runs). The
 //! right-hand side, evaluated at the stage state projected onto every joint (below), is
-//! then an ordinary differential
-//! equation on the tree coordinates whose flow keeps every joint, and a stage costs
-//! `m + 2` tree solves and one `m × m` factorization: `O(m N + m³)`.
+//! then an ordinary differential equation on the tree coordinates whose flow keeps every
+//! joint. A stage costs about `2m + 4` tree solves and two `m × m` products and
+//! factorizations (the projection's and the accelerations'): `O(m N + m³)`.
 //!
 //! ## The projection
 //!
