@@ -50,7 +50,7 @@ use nalgebra::DMatrix;
 use super::reduced::Solver;
 use super::{cut_response, cut_row_times, k_diag, Natural};
 use crate::contract::persist::{self, StateVisitor};
-use crate::contract::system::{ConstraintEval, Layout, Need, Pose, RowKind, System, Twist};
+use crate::contract::system::{ConstraintEval, Layout, Need, Pose, RowJac, RowKind, System, Twist};
 use crate::integrators::common::rotate_body;
 use crate::integrators::StepError;
 use crate::linalg::{DenseCholesky, DEFAULT_PIVOT_TOL};
@@ -197,15 +197,9 @@ impl Loops {
         if !factored {
             self.matrix(nat, layout, Rows::All)?;
         }
-        let Natural {
-            tree,
-            nodes,
-            active,
-            ..
-        } = nat;
-        for (i, &r) in tree.cut_rows.iter().enumerate() {
-            self.rhs[i] = if active[r] {
-                cut_row_times(layout, r, &self.ce.jac, &tree.pos, |q| nodes[q].a0)
+        for (i, &r) in nat.tree.cut_rows.iter().enumerate() {
+            self.rhs[i] = if nat.active[r] {
+                cut_row_times(layout, r, &self.ce.jac, &nat.tree.pos, |q| nat.nodes[q].a0)
                     - self.ce.gamma[r]
             } else {
                 0.0
@@ -213,19 +207,9 @@ impl Loops {
         }
         self.solve();
         self.lambda.copy_from_slice(&self.rhs);
-        let solver = Solver { tree };
-        cut_response(
-            &solver,
-            nodes,
-            layout,
-            &tree.cut_rows,
-            &self.ce.jac,
-            &tree.pos,
-            active,
-            &self.lambda,
-        );
-        for (p, l) in tree.links.iter().enumerate() {
-            let n = &nodes[p];
+        respond(nat, layout, &self.ce.jac, &self.lambda);
+        for (p, l) in nat.tree.links.iter().enumerate() {
+            let n = &nat.nodes[p];
             out[l.body] = Twist {
                 v: n.a0.v - n.acc.v,
                 w: n.a0.w - n.acc.w,
@@ -297,25 +281,9 @@ impl Loops {
             factor_tree(nat)?;
             self.matrix(nat, layout, Rows::Holonomic)?;
             self.solve();
-            let Natural {
-                tree,
-                nodes,
-                active,
-                ..
-            } = nat;
-            let solver = Solver { tree };
-            cut_response(
-                &solver,
-                nodes,
-                layout,
-                &tree.cut_rows,
-                &self.ce.jac,
-                &tree.pos,
-                active,
-                &self.rhs,
-            );
-            for (p, l) in tree.links.iter().enumerate() {
-                let d = &nodes[p].acc;
+            respond(nat, layout, &self.ce.jac, &self.rhs);
+            for (p, l) in nat.tree.links.iter().enumerate() {
+                let d = &nat.nodes[p].acc;
                 pose[l.body] = rotate_body(&pose[l.body], -d.v, -d.w);
             }
         }
@@ -330,14 +298,9 @@ impl Loops {
         sys.constraints(t, pose, vel, Need::JAC, &mut self.ce);
         factor_tree(nat)?;
         self.matrix(nat, layout, Rows::All)?;
-        let Natural {
-            tree,
-            nodes,
-            active,
-            ..
-        } = nat;
+        let tree = &nat.tree;
         for (i, &r) in tree.cut_rows.iter().enumerate() {
-            self.rhs[i] = if active[r] {
+            self.rhs[i] = if nat.active[r] {
                 cut_row_times(layout, r, &self.ce.jac, &tree.pos, |q| {
                     vel[tree.links[q].body]
                 }) + self.ce.bias[r]
@@ -346,19 +309,9 @@ impl Loops {
             };
         }
         self.solve();
-        let solver = Solver { tree };
-        cut_response(
-            &solver,
-            nodes,
-            layout,
-            &tree.cut_rows,
-            &self.ce.jac,
-            &tree.pos,
-            active,
-            &self.rhs,
-        );
-        for (p, l) in tree.links.iter().enumerate() {
-            let d = &nodes[p].acc;
+        respond(nat, layout, &self.ce.jac, &self.rhs);
+        for (p, l) in nat.tree.links.iter().enumerate() {
+            let d = &nat.nodes[p].acc;
             vel[l.body].v -= d.v;
             vel[l.body].w -= d.w;
         }
@@ -465,6 +418,28 @@ impl Loops {
         self.void_start.get_or_insert(void);
         Ok(())
     }
+}
+
+/// `Node::acc = R v = A(AᵀMA)⁻¹AᵀB_cᵀ v` per position, with the factorization in the nodes
+/// and the cut rows' Jacobian `jac` (one tree solve).
+fn respond(nat: &mut Natural, layout: &Layout, jac: &[RowJac], v: &[f64]) {
+    let Natural {
+        tree,
+        nodes,
+        active,
+        ..
+    } = nat;
+    let solver = Solver { tree };
+    cut_response(
+        &solver,
+        nodes,
+        layout,
+        &tree.cut_rows,
+        jac,
+        &tree.pos,
+        active,
+        v,
+    );
 }
 
 /// Factor `AᵀMA` at the joint blocks in the nodes.

@@ -370,6 +370,23 @@ impl RungeKutta {
         })
     }
 
+    /// The first stage `k[0] = f(t, y)`.
+    fn first_stage<S: System>(&mut self, sys: &S) -> Result<(), StepError> {
+        rhs(
+            &mut self.nat,
+            &mut self.loops,
+            sys,
+            self.t,
+            &self.y,
+            &mut self.pose,
+            &mut self.vel,
+            &mut self.acc,
+            &mut self.k[0],
+        )?;
+        self.evaluations += 1;
+        Ok(())
+    }
+
     /// One attempt of size `hs` from `(t, y)` into `y_new` (and the error estimates into
     /// `err`, `err3` for an embedded method).
     fn attempt<S: System>(&mut self, sys: &S, hs: f64) -> Result<(), StepError> {
@@ -379,18 +396,7 @@ impl RungeKutta {
             if self.fsal_pending {
                 self.k.swap(0, s - 1);
             } else {
-                rhs(
-                    &mut self.nat,
-                    &mut self.loops,
-                    sys,
-                    self.t,
-                    &self.y,
-                    &mut self.pose,
-                    &mut self.vel,
-                    &mut self.acc,
-                    &mut self.k[0],
-                )?;
-                self.evaluations += 1;
+                self.first_stage(sys)?;
             }
             self.k0_valid = true;
             self.fsal_pending = false;
@@ -508,17 +514,7 @@ impl RungeKutta {
         // the reported multipliers: a stage evaluation at the reported state (for a method
         // without FSAL at a step's end, the next step's first stage)
         if theta.is_none() && self.tab.fsal == Fsal::No {
-            rhs(
-                &mut self.nat,
-                &mut self.loops,
-                sys,
-                self.t,
-                &self.y,
-                &mut self.pose,
-                &mut self.vel,
-                &mut self.acc,
-                &mut self.k[0],
-            )?;
+            self.first_stage(sys)?;
             self.k0_valid = true;
         } else {
             let t = match theta {
@@ -537,8 +533,8 @@ impl RungeKutta {
                 &mut self.acc,
                 &mut self.k_out,
             )?;
+            self.evaluations += 1;
         }
-        self.evaluations += 1;
         if let (Some(l), nat) = (&self.loops, &self.nat) {
             l.multipliers(nat, &mut self.out_lambda);
         }
