@@ -59,20 +59,37 @@ def sweep(mbdc, root, scene, out, interp=False, levels=7, methods=None, model=No
 
 
 def series(result, scene):
-    """Per method, its (step, CPU seconds per simulated second, error) points."""
+    """Per method, its (step, CPU seconds per simulated second, error) points, and per
+    method the runs' loop closures (the largest joint violation over the run, sweep.json's
+    `max_violation`, m)."""
     key = "pos_err_final_m" if scene.measure == "pos-final" else "rot_err_final_rad"
-    out = {}
+    out, closures = {}, {}
     for run in result["runs"]:
         if run.get("status") != "ok" or run.get(key) is None:
             continue
         out.setdefault(run["method"], []).append(
             (run["step_s"], run["cpu_time_s"] / scene.duration, run[key]))
-    return out
+        closures.setdefault(run["method"], []).append(run.get("max_violation"))
+    return out, closures
+
+
+def final_closure(out):
+    """The largest joint violation (`JOINT.violation` of `constraints.csv`, m) at the last
+    frame of an `mbdc run` written to `out`; None when the run wrote no constraints."""
+    path = Path(out) / "constraints.csv"
+    if not path.is_file():
+        return None
+    with open(path) as f:
+        rows = list(csv.reader(f))
+    if len(rows) < 2:
+        return None
+    cols = [i for i, name in enumerate(rows[0]) if name.endswith(".violation")]
+    return max((abs(float(rows[-1][i])) for i in cols), default=None)
 
 
 def final_poses(mbdc, root, scene, method, h, out, model=None):
     """The final mass-centre positions and orientations of one interpreted `mbdc run` (of
-    `model`, default the scene's)."""
+    `model`, default the scene's); its final loop closure is `final_closure(out)`."""
     model = model or root / scene.model
     steps = int(round(scene.duration / h))
     cmd = [str(mbdc), "run", str(model), *_sets(scene), "--interp", "-q",
@@ -84,9 +101,9 @@ def final_poses(mbdc, root, scene, method, h, out, model=None):
     head, last = rows[0], [float(x) for x in rows[-1]]
     col = {name: i for i, name in enumerate(head)}
     poses = []
-    for link in scene.links:
-        p = np.array([last[col[f"{link.name}.{c}"]] for c in "xyz"])
-        w, x, y, z = (last[col[f"{link.name}.{c}"]] for c in ("qw", "qx", "qy", "qz"))
+    for name in scene.names:
+        p = np.array([last[col[f"{name}.{c}"]] for c in "xyz"])
+        w, x, y, z = (last[col[f"{name}.{c}"]] for c in ("qw", "qx", "qy", "qz"))
         n = math.sqrt(w * w + x * x + y * y + z * z)
         w, x, y, z = w / n, x / n, y / n, z / n
         rot = np.array([
@@ -111,9 +128,10 @@ def with_method(text, method):
 def tolerance_series(mbdc, root, scene, out, ref, error, tolerances, method="dopri5"):
     """An error-controlled `method`'s (`dopri5`, `dop853`) (tolerance, CPU seconds per
     simulated second, error against `ref`) points: see the module doc. `error(scene, poses,
-    ref)` is the race's error measure."""
+    ref)` is the race's error measure. Returns the points and each point's loop closure
+    (the largest joint violation at the end of the interpreted run, m)."""
     text = (root / scene.model).read_text()
-    pts = []
+    pts, closures = [], []
     for tol in tolerances:
         d = Path(out) / f"tol_{tol:.0e}"
         d.mkdir(parents=True, exist_ok=True)
@@ -131,7 +149,10 @@ def tolerance_series(mbdc, root, scene, out, ref, error, tolerances, method="dop
             print(f"    {method} tolerance {tol:.0e}: mbdc failed ({e})", flush=True)
             continue
         err = error(scene, poses, ref)
+        closure = final_closure(d / "run")
         pts.append((tol, run["cpu_time_s"] / scene.duration, err))
+        closures.append(closure)
         print(f"    {method} tolerance {tol:.0e} (h = {run['step_s']:.3e}): "
-              f"{run['cpu_time_s'] / scene.duration:.3e} s/s, error {err:.3e}", flush=True)
-    return pts
+              f"{run['cpu_time_s'] / scene.duration:.3e} s/s, error {err:.3e}"
+              + (f", closure {closure:.1e}" if closure is not None else ""), flush=True)
+    return pts, closures

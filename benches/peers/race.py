@@ -6,6 +6,7 @@ side by side in one run.
     cargo build --release -p mbdc
     benches/peers/.venv/bin/python benches/peers/race.py [--scenes NAME,...] [--levels N]
         [--skip-methods NAME,...] [--reference-method NAME] [--tolerances T,...] [--interp]
+        [--duration S]
 
 The mbdc binary is `--mbdc`, else `$MBDC_BIN`, else `release/mbdc` of cargo's target folder
 (`$CARGO_TARGET_DIR` when set, else the repository's `target/`); the output folder is
@@ -21,6 +22,14 @@ the error-controlled `dopri5` and `dop853` at one tolerance over their steps (`m
 (step series)`); their work–precision series proper vary the tolerance (`--tolerances`,
 `mbdc dopri5 (tolerance series)`, `mbdc dop853 (tolerance series)`, errors against the
 independent reference; see `mbdc_side.py`).
+
+On the closed loops (`four_bar_planar`, `slider_crank_race`) every run also reports its loop
+closure, the largest joint violation (m): MuJoCo's over ~200 states sampled over the run,
+Exudyn's at the end, mbdc's sweep runs over their output frames, mbdc's tolerance series and
+check run at the end. `race.md` then has a closure table, and the scene notes say where a
+peer does not apply (Exudyn's explicit solvers refuse the loop). `crosscheck.py` checks the
+loops' models and reference outside the race (the reference against mbdc `dop853` at
+tolerance 1e-12, one run of each peer).
 """
 
 import argparse
@@ -65,34 +74,52 @@ def cost_at(points, level):
 
 
 def timed(f, *args):
-    """Best of up to 3 repetitions while a repetition takes under 0.2 s."""
-    cpu, out = f(*args)
+    """Best of up to 3 repetitions while a repetition takes under 0.2 s: (CPU s, and the
+    rest of the first run's result: final poses, loop closure)."""
+    cpu, *out = f(*args)
     reps = 1
     while cpu < 0.2 and reps < 3:
-        c, _ = f(*args)
+        c, *_ = f(*args)
         cpu = min(cpu, c)
         reps += 1
     return cpu, out
 
 
+def stalled(errors, halvings=5, gain=0.7):
+    """Whether a series' error has stopped falling: its last `halvings` runs are all above
+    `gain` times the best error before them (a floor — a soft constraint's own error, a
+    solver tolerance — that finer steps only pay for). A converging first-order method
+    gains 32× over five halvings, so a lucky cancellation at a coarse step does not stop a
+    series that converges."""
+    ok = [e for e in errors if math.isfinite(e)]
+    if len(ok) <= halvings or len(ok) < len(errors):
+        return False
+    return min(ok[-halvings:]) > gain * min(ok[:-halvings])
+
+
 def peer_series(scene, ref, run, method, h0):
-    """(step, CPU s per simulated s, error) of a peer's method, halving the step from h0.
-    A coarse start may blow up (a non-finite error): the series goes on halving until the
-    first finite error, and stops at a non-finite one after that."""
-    pts = []
+    """(step, CPU s per simulated s, error) of a peer's method, halving the step from h0,
+    and each run's loop closure (m). A coarse start may blow up (a non-finite error): the
+    series goes on halving until the first finite error, and stops at a non-finite one
+    after that. It stops at an error below FLOOR, a run dearer than BUDGET_S, a step below
+    1 µs, or an error that has `stalled`."""
+    pts, closures = [], []
     h = h0
     while True:
-        cpu, poses = timed(run, scene, h, method)
+        cpu, (poses, closure) = timed(run, scene, h, method)
         err = reference.error(scene, poses, ref)
         pts.append((h, cpu / scene.duration, err))
-        print(f"    {method:>12} h={h:.3e}: {cpu / scene.duration:.3e} s/s, error {err:.3e}",
-              flush=True)
+        closures.append(closure)
+        loop = f", closure {closure:.1e}" if isinstance(scene, scenes.LoopScene) else ""
+        print(f"    {method:>12} h={h:.3e}: {cpu / scene.duration:.3e} s/s, error {err:.3e}"
+              + loop, flush=True)
         blown_up_after_finite = not math.isfinite(err) and any(
             math.isfinite(p[2]) for p in pts)
-        if err < FLOOR or cpu > BUDGET_S or blown_up_after_finite or h < 1e-6:
+        if (err < FLOOR or cpu > BUDGET_S or blown_up_after_finite or h < 1e-6
+                or stalled([p[2] for p in pts])):
             break
         h /= 2.0
-    return pts
+    return pts, closures
 
 
 def _ms(cost):
@@ -125,8 +152,13 @@ def write_tables(results, out):
         return f"{mark}{mine[1] / theirs[1]:.2f}"
 
     runs = sorted({r.get("run", "") for r in results})
-    lines = ["Run: " + ", ".join(f"`race.py {a}`" for a in runs), "",
-             "| scene | measure | level | mbdc best (ms per simulated s) | best peer | mbdc / peer | check (sweep error / independent) |",
+    lines = ["Run: " + ", ".join(f"`race.py {a}`" for a in runs), ""]
+    for r in results:
+        lines.append(f"- {r['scene']} ({r['duration_s']:g} s): reference "
+                     f"{r.get('reference', 'Pinocchio ABA + DOP853')}, its own error "
+                     f"{r['reference_error']:.1e}")
+        lines += [f"  - {note}" for note in r.get("notes", [])]
+    lines += ["", "| scene | measure | level | mbdc best (ms per simulated s) | best peer | mbdc / peer | check (sweep error / independent) |",
              "|---|---|---|---|---|---|---|"]
     for r in results:
         for level in LEVELS:
@@ -165,6 +197,29 @@ def write_tables(results, out):
             low = min(ok, key=lambda p: p[2]) if ok else None
             least = f"{low[2]:.2e} ({_ms(low[1])})" if low else "—"
             lines.append(f"| {r['scene']} | {name} | " + " | ".join(cells) + f" | {least} |")
+    loops = [r for r in results if r.get("closure")]
+    if loops:
+        lines += ["", "Loop closure, the largest joint violation (m; see the module doc for where "
+                  "each code measures it): at each series' most accurate run, and the least and "
+                  "largest over the series' runs:", "",
+                  "| scene | code and method | at the most accurate run (its error) | least | largest |",
+                  "|---|---|---|---|---|"]
+        for r in loops:
+            for name, cls in r["closure"].items():
+                pts = r["series"][name]
+                ok = [(p[2], c) for p, c in zip(pts, cls)
+                      if c is not None and math.isfinite(p[2]) and math.isfinite(c)]
+                if not ok:
+                    lines.append(f"| {r['scene']} | {name} | — | — | — |")
+                    continue
+                err, c = min(ok)
+                vals = [c for _, c in ok]
+                lines.append(f"| {r['scene']} | {name} | {c:.1e} ({err:.1e}) | {min(vals):.1e} "
+                             f"| {max(vals):.1e} |")
+            c = r["check"]
+            if len(c) > 4 and c[4] is not None:
+                lines.append(f"| {r['scene']} | mbdc {c[0]} (check run, h = {c[1]:.2e}, at the end) "
+                             f"| {c[4]:.1e} ({c[3]:.1e}) | | |")
     table = "\n".join(lines)
     (out / "race.md").write_text(table + "\n")
     return table
@@ -183,6 +238,9 @@ def main():
                     help="mbdc sweep --reference-method (default: the sweep's choice)")
     ap.add_argument("--skip-methods", default="",
                     help="mbdc methods the sweep leaves out, comma-separated (default none)")
+    ap.add_argument("--duration", type=float, default=None,
+                    help="simulate this long (s) instead of each scene's duration: quick checks "
+                         "of the harness, not race results")
     ap.add_argument("--tables-only", action="store_true",
                     help="only rewrite race.md from the output folder's race.json")
     ap.add_argument("--tolerances", default="1e-3,1e-4,1e-5,1e-6,1e-7,1e-8,1e-9,1e-10,1e-11,1e-12",
@@ -203,34 +261,54 @@ def main():
     for scene in scenes.all_scenes():
         if chosen and scene.name not in chosen:
             continue
-        print(f"{scene.name}: reference (Pinocchio ABA + DOP853)", flush=True)
+        if a.duration:
+            scene.duration = a.duration
+        loop = isinstance(scene, scenes.LoopScene)
+        ref_kind = ("coordinate partitioning in planar natural coordinates + DOP853" if loop
+                    else "Pinocchio ABA + DOP853")
+        print(f"{scene.name}: reference ({ref_kind})", flush=True)
         t0 = time.time()
         ref, ref_err = reference.reference(scene)
         print(f"  reference's own error {ref_err:.1e} ({time.time() - t0:.0f} s)", flush=True)
-        entries = {}
+        entries, closures, notes = {}, {}, []
         # coarse enough that each series' cheapest run misses 1e-3 (else its cost there is
         # only a bound, marked ≤)
         h0 = scene.duration / 50.0
-        for integ in peer_mujoco.INTEGRATORS:
-            entries[f"MuJoCo {integ}"] = peer_series(scene, ref, peer_mujoco.run, integ, h0)
-        if peer_exudyn.supports(scene):
+        for integ in peer_mujoco.methods(scene):
+            name = f"MuJoCo {integ}"
+            entries[name], closures[name] = peer_series(scene, ref, peer_mujoco.run, integ, h0)
+        if loop:
+            for setting, attrs in peer_mujoco.EQUALITY.items():
+                notes.append(f"MuJoCo ({setting}): the loop closed by `<connect {attrs}/>`")
             for solver in peer_exudyn.SOLVERS:
-                entries[f"Exudyn {solver}"] = peer_series(scene, ref, peer_exudyn.run, solver, h0)
+                why = peer_exudyn.loop_refusal(scene, solver)
+                notes.append(f"Exudyn {solver}: does not apply (explicit solvers refuse the loop's "
+                             f"constraints: \"{why}\")" if why else
+                             f"Exudyn {solver}: ran the loop (not raced)")
+            notes.append("Exudyn " + ", ".join(peer_exudyn.LOOP_SOLVERS) + ": implicit, on "
+                         "ObjectRigidBody2D bodies with 2-D revolute/prismatic joints")
+        if peer_exudyn.supports(scene):
+            for solver in peer_exudyn.solvers(scene):
+                name = f"Exudyn {solver}"
+                entries[name], closures[name] = peer_series(scene, ref, peer_exudyn.run,
+                                                            solver, h0)
         print("  mbdc sweep", flush=True)
         skip = [m for m in a.skip_methods.split(",") if m]
         sw = mbdc_side.sweep(mbdc, root, scene, out / f"sweep_{scene.name}", a.interp,
                              levels=a.levels, skip=skip,
                              reference_method=a.reference_method)
-        mine = mbdc_side.series(sw, scene)
+        mine, mine_closures = mbdc_side.series(sw, scene)
         controlled = [m for m in ("dopri5", "dop853") if m not in skip]
         for method, pts in mine.items():
             # the sweep runs an error-controlled method at one tolerance (the scene's, else
             # 1e-9) over its steps
-            entries[f"mbdc {method}" + (" (step series)" if method in controlled else "")] = pts
+            name = f"mbdc {method}" + (" (step series)" if method in controlled else "")
+            entries[name], closures[name] = pts, mine_closures[method]
         tols = [float(t) for t in a.tolerances.split(",") if t]
         for method in controlled if tols else []:
             print(f"  mbdc {method}, tolerance series", flush=True)
-            entries[f"mbdc {method} (tolerance series)"] = mbdc_side.tolerance_series(
+            name = f"mbdc {method} (tolerance series)"
+            entries[name], closures[name] = mbdc_side.tolerance_series(
                 mbdc, root, scene, out / f"{method}_{scene.name}", ref, reference.error, tols,
                 method)
         # the check: the finest run of mbdc's method with the smallest error, against the
@@ -239,12 +317,16 @@ def main():
                            key=lambda x: x[1][2])
         poses = mbdc_side.final_poses(mbdc, root, scene, best_m, best[0],
                                       out / f"check_{scene.name}")
-        check = (best_m, best[0], best[2], reference.error(scene, poses, ref))
+        check = (best_m, best[0], best[2], reference.error(scene, poses, ref),
+                 mbdc_side.final_closure(out / f"check_{scene.name}") if loop else None)
         print(f"  check: mbdc {best_m} h={best[0]:.3e}: sweep error {best[2]:.3e}, against the "
-              f"independent reference {check[3]:.3e}", flush=True)
+              f"independent reference {check[3]:.3e}"
+              + (f", closure at the end {check[4]:.1e}" if loop else ""), flush=True)
         row = {"scene": scene.name, "run": " ".join(sys.argv[1:]),
                "duration_s": scene.duration, "measure": scene.measure,
-               "reference_error": ref_err, "check": check, "series": entries, "levels": {}}
+               "reference": ref_kind, "reference_error": ref_err, "notes": notes,
+               "check": check, "series": entries, "closure": closures if loop else {},
+               "levels": {}}
         for level in LEVELS:
             costs = {k: cost_at(v, level) for k, v in entries.items()}
             m = {k: c for k, c in costs.items() if c is not None and k.startswith("mbdc")}
