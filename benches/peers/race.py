@@ -265,8 +265,10 @@ def main():
             name = f"MuJoCo {integ}"
             entries[name], closures[name] = peer_series(scene, ref, peer_mujoco.run, integ, h0)
         if loop:
-            for setting, attrs in peer_mujoco.EQUALITY.items():
-                notes.append(f"MuJoCo ({setting}): the loop closed by `<connect {attrs}/>`")
+            for setting in sorted({m.split("(")[1].rstrip(")")
+                                   for m in peer_mujoco.methods(scene)}):
+                notes.append(f"MuJoCo ({setting}): the loop closed by "
+                             f"`<connect {peer_mujoco.EQUALITY[setting]}/>`")
             for solver in peer_exudyn.SOLVERS:
                 why = peer_exudyn.loop_refusal(scene, solver)
                 notes.append(f"Exudyn {solver}: does not apply (explicit solvers refuse the loop's "
