@@ -74,7 +74,7 @@ def main():
         poses, closure = mbdc_dop853(mbdc, root, scene, out / scene.name)
         print(f"  mbdc dop853, tolerance {TOLERANCE:g}: {reference.error(scene, poses, ref):.2e} m "
               f"from the reference, closure at the end {closure:.1e} m", flush=True)
-        for method in peer_mujoco.methods(scene):
+        for method in peer_mujoco.methods(scene, race=False):
             cpu, poses, closure = peer_mujoco.run(scene, a.step, method)
             print(f"  MuJoCo {method} at h = {a.step:g} s: {reference.error(scene, poses, ref):.2e} m, "
                   f"closure (largest sampled) {closure:.1e} m, {cpu:.2f} s CPU", flush=True)

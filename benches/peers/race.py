@@ -85,24 +85,12 @@ def timed(f, *args):
     return cpu, out
 
 
-def stalled(errors, halvings=5, gain=0.7):
-    """Whether a series' error has stopped falling: its last `halvings` runs are all above
-    `gain` times the best error before them (a floor — a soft constraint's own error, a
-    solver tolerance — that finer steps only pay for). A converging first-order method
-    gains 32× over five halvings, so a lucky cancellation at a coarse step does not stop a
-    series that converges."""
-    ok = [e for e in errors if math.isfinite(e)]
-    if len(ok) <= halvings or len(ok) < len(errors):
-        return False
-    return min(ok[-halvings:]) > gain * min(ok[:-halvings])
-
-
 def peer_series(scene, ref, run, method, h0):
     """(step, CPU s per simulated s, error) of a peer's method, halving the step from h0,
     and each run's loop closure (m). A coarse start may blow up (a non-finite error): the
     series goes on halving until the first finite error, and stops at a non-finite one
-    after that. It stops at an error below FLOOR, a run dearer than BUDGET_S, a step below
-    1 µs, or an error that has `stalled`."""
+    after that. It stops at an error below FLOOR, a run dearer than BUDGET_S or a step
+    below 1 µs."""
     pts, closures = [], []
     h = h0
     while True:
@@ -115,8 +103,7 @@ def peer_series(scene, ref, run, method, h0):
               + loop, flush=True)
         blown_up_after_finite = not math.isfinite(err) and any(
             math.isfinite(p[2]) for p in pts)
-        if (err < FLOOR or cpu > BUDGET_S or blown_up_after_finite or h < 1e-6
-                or stalled([p[2] for p in pts])):
+        if err < FLOOR or cpu > BUDGET_S or blown_up_after_finite or h < 1e-6:
             break
         h /= 2.0
     return pts, closures
@@ -278,8 +265,10 @@ def main():
             name = f"MuJoCo {integ}"
             entries[name], closures[name] = peer_series(scene, ref, peer_mujoco.run, integ, h0)
         if loop:
-            for setting, attrs in peer_mujoco.EQUALITY.items():
-                notes.append(f"MuJoCo ({setting}): the loop closed by `<connect {attrs}/>`")
+            for setting in sorted({m.split("(")[1].rstrip(")")
+                                   for m in peer_mujoco.methods(scene)}):
+                notes.append(f"MuJoCo ({setting}): the loop closed by "
+                             f"`<connect {peer_mujoco.EQUALITY[setting]}/>`")
             for solver in peer_exudyn.SOLVERS:
                 why = peer_exudyn.loop_refusal(scene, solver)
                 notes.append(f"Exudyn {solver}: does not apply (explicit solvers refuse the loop's "
