@@ -262,20 +262,32 @@ fn measured_orders_on_the_pendulum() {
         (&DOPRI5, [0.04, 0.02, 0.01, 0.005], 5.0, 0.3),
         (&DOP853, [0.2, 0.1, 0.05, 0.025], 8.0, 0.5),
     ] {
-        let runs: Vec<(f64, f64)> = hs
-            .iter()
-            .map(|&h| pendulum_run(tab, h, None, 1.0))
-            .collect();
-        let e: Vec<f64> = runs.iter().map(|r| r.0).collect();
-        let phi = runs.iter().map(|r| r.1).fold(0.0, f64::max);
-        let p = slope(&hs, &e);
-        eprintln!(
-            "{} pendulum: errors {e:?}, order {p:.3}, max |Φ| {phi:.1e}",
-            tab.name
-        );
-        assert!((p - want).abs() < band, "{}: order {p} ({e:?})", tab.name);
-        assert!(phi < 1e-13, "{}: joint violation {phi:e}", tab.name);
+        assert_order("pendulum", tab, &hs, want, band, |h| {
+            pendulum_run(tab, h, None, 1.0)
+        });
     }
+}
+
+/// The fitted order of `tab` over the steps `hs` is within `band` of `want`, and every run
+/// keeps the joints within 1e-13; `run(h)` gives a run's (error, largest violation).
+fn assert_order(
+    scene: &str,
+    tab: &Tableau,
+    hs: &[f64],
+    want: f64,
+    band: f64,
+    run: impl Fn(f64) -> (f64, f64),
+) {
+    let runs: Vec<(f64, f64)> = hs.iter().map(|&h| run(h)).collect();
+    let e: Vec<f64> = runs.iter().map(|r| r.0).collect();
+    let phi = runs.iter().map(|r| r.1).fold(0.0, f64::max);
+    let p = slope(hs, &e);
+    eprintln!(
+        "{} {scene}: errors {e:?}, order {p:.3}, max |Φ| {phi:.1e}",
+        tab.name
+    );
+    assert!((p - want).abs() < band, "{}: order {p} ({e:?})", tab.name);
+    assert!(phi < 1e-13, "{}: joint violation {phi:e}", tab.name);
 }
 
 /// dopri5 driven by its tolerance: the true error (vs the elliptic-function solution,
@@ -622,22 +634,10 @@ fn closed_loop_keeps_the_order_and_closes_at_round_off() {
         (&RK4, [0.04, 0.02, 0.01, 0.005], 4.0, 0.3),
         (&DOPRI5, [0.08, 0.04, 0.02, 0.01], 5.0, 0.3),
     ] {
-        let runs: Vec<(f64, f64)> = hs
-            .iter()
-            .map(|&h| {
-                let (e, phi, _) = parallelogram_run(tab, h, None, 1.0);
-                (e, phi)
-            })
-            .collect();
-        let e: Vec<f64> = runs.iter().map(|r| r.0).collect();
-        let phi = runs.iter().map(|r| r.1).fold(0.0, f64::max);
-        let p = slope(&hs, &e);
-        eprintln!(
-            "{} parallelogram: errors {e:?}, order {p:.3}, max |Φ| {phi:.1e}",
-            tab.name
-        );
-        assert!((p - want).abs() < band, "{}: order {p} ({e:?})", tab.name);
-        assert!(phi < 1e-13, "{}: joint violation {phi:e}", tab.name);
+        assert_order("parallelogram", tab, &hs, want, band, |h| {
+            let (e, phi, _) = parallelogram_run(tab, h, None, 1.0);
+            (e, phi)
+        });
     }
 }
 
